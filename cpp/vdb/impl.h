@@ -1,0 +1,72 @@
+// Private to cpp/vdb: the pimpl bodies and helpers shared by its sources.
+#pragma once
+
+#include <openvdb/openvdb.h>
+
+#include <array>
+#include <cmath>
+#include <string>
+
+#include "dentsim-vdb/src/sys.rs.h"
+#include "vdb/level_set.h"
+
+namespace dentsim::vdb {
+
+using openvdb::Coord;
+using openvdb::FloatGrid;
+using openvdb::FloatTree;
+
+// OpenVDB must register its grid and metadata types once per process before file I/O.
+void ensure_initialized();
+
+struct LevelSet::Impl {
+  FloatGrid::Ptr grid;
+};
+
+// Unregistered accessor: no allocation or locking on creation; valid while the grid is not
+// modified, which the Rust side guarantees by borrowing the grid for the reader's lifetime.
+struct Reader::Impl {
+  FloatGrid::ConstPtr grid;
+  openvdb::tree::ValueAccessor<const FloatTree, false> acc;
+  openvdb::math::Transform::ConstPtr xform;
+  explicit Impl(FloatGrid::ConstPtr g) : grid(g), acc(g->tree()), xform(g->transformPtr()) {}
+};
+
+struct GridList::Impl {
+  openvdb::GridPtrVec grids;
+};
+
+std::unique_ptr<LevelSet> wrap(FloatGrid::Ptr grid);
+FloatGrid::Ptr new_grid(double voxel_size, double half_width);
+
+// Smoothed Heaviside of a signed distance: 1 inside, 0 outside, over +-1.5 voxels.
+inline double inside_fraction(float phi, double eps) {
+  if (phi <= -eps) return 1.0;
+  if (phi >= eps) return 0.0;
+  const double t = phi / eps;
+  return 0.5 * (1.0 - t - std::sin(M_PI * t) / M_PI);
+}
+
+// Trilinear value and gradient (world units) at an index-space point.
+template <typename Accessor>
+inline std::array<float, 4> trilinear(Accessor& acc, const openvdb::Vec3d& ijk, double voxel) {
+  const openvdb::Vec3d f(std::floor(ijk.x()), std::floor(ijk.y()), std::floor(ijk.z()));
+  const Coord c(int(f.x()), int(f.y()), int(f.z()));
+  const double u = ijk.x() - f.x(), v = ijk.y() - f.y(), w = ijk.z() - f.z();
+  float s[2][2][2];
+  for (int a = 0; a < 2; ++a)
+    for (int b = 0; b < 2; ++b)
+      for (int d = 0; d < 2; ++d) s[a][b][d] = acc.getValue(c.offsetBy(a, b, d));
+  auto lerp = [](double p, double q, double t) { return p + (q - p) * t; };
+  const double x00 = lerp(s[0][0][0], s[1][0][0], u), x10 = lerp(s[0][1][0], s[1][1][0], u);
+  const double x01 = lerp(s[0][0][1], s[1][0][1], u), x11 = lerp(s[0][1][1], s[1][1][1], u);
+  const double y0 = lerp(x00, x10, v), y1 = lerp(x01, x11, v);
+  const double value = lerp(y0, y1, w);
+  const double gx = lerp(lerp(s[1][0][0] - s[0][0][0], s[1][1][0] - s[0][1][0], v),
+                         lerp(s[1][0][1] - s[0][0][1], s[1][1][1] - s[0][1][1], v), w);
+  const double gy = lerp(x10 - x00, x11 - x01, w);
+  const double gz = y1 - y0;
+  return {float(value), float(gx / voxel), float(gy / voxel), float(gz / voxel)};
+}
+
+}  // namespace dentsim::vdb

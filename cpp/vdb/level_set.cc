@@ -1,0 +1,183 @@
+// LevelSet basics: construction from leaves, measures, CSG and metadata.
+#include <openvdb/tools/Composite.h>
+#include <openvdb/tools/LevelSetSphere.h>
+#include <openvdb/tools/Prune.h>
+#include <openvdb/tools/SignedFloodFill.h>
+
+#include <mutex>
+#include <stdexcept>
+
+#include "impl.h"
+
+namespace dentsim::vdb {
+
+void ensure_initialized() {
+  static std::once_flag once;
+  std::call_once(once, [] { openvdb::initialize(); });
+}
+
+LevelSet::LevelSet(std::unique_ptr<Impl> i) : impl(std::move(i)) {}
+LevelSet::~LevelSet() = default;
+
+std::unique_ptr<LevelSet> wrap(FloatGrid::Ptr grid) {
+  auto impl = std::make_unique<LevelSet::Impl>();
+  impl->grid = std::move(grid);
+  return std::make_unique<LevelSet>(std::move(impl));
+}
+
+FloatGrid::Ptr new_grid(double voxel_size, double half_width) {
+  ensure_initialized();
+  if (!(voxel_size > 0.0) || !std::isfinite(voxel_size))
+    throw std::invalid_argument("voxel size must be a positive number of mm, got " +
+                                std::to_string(voxel_size));
+  if (!(half_width >= 1.0) || !std::isfinite(half_width))
+    throw std::invalid_argument("narrow-band half width must be at least 1 voxel, got " +
+                                std::to_string(half_width));
+  auto grid = FloatGrid::create(float(voxel_size * half_width));
+  grid->setTransform(openvdb::math::Transform::createLinearTransform(voxel_size));
+  grid->setGridClass(openvdb::GRID_LEVEL_SET);
+  return grid;
+}
+
+std::unique_ptr<LevelSet> new_level_set(double voxel_size, double half_width) {
+  return wrap(new_grid(voxel_size, half_width));
+}
+
+std::unique_ptr<LevelSet> level_set_sphere(std::array<double, 3> center, double radius,
+                                           double voxel_size, double half_width) {
+  new_grid(voxel_size, half_width);  // validates the arguments
+  if (!(radius > voxel_size)) throw std::invalid_argument("sphere radius must exceed one voxel");
+  return wrap(openvdb::tools::createLevelSetSphere<FloatGrid>(
+      float(radius), openvdb::Vec3f(center[0], center[1], center[2]), float(voxel_size),
+      float(half_width)));
+}
+
+double LevelSet::voxel_size() const { return impl->grid->voxelSize()[0]; }
+float LevelSet::background() const { return impl->grid->background(); }
+rust::String LevelSet::name() const { return rust::String(impl->grid->getName()); }
+void LevelSet::set_name(rust::Str name) { impl->grid->setName(std::string(name)); }
+uint64_t LevelSet::active_voxel_count() const { return impl->grid->activeVoxelCount(); }
+uint64_t LevelSet::leaf_count() const { return impl->grid->tree().leafCount(); }
+uint64_t LevelSet::mem_bytes() const { return impl->grid->memUsage(); }
+
+std::array<int32_t, 6> LevelSet::index_bbox() const {
+  const auto box = impl->grid->evalActiveVoxelBoundingBox();
+  return {box.min().x(), box.min().y(), box.min().z(), box.max().x(), box.max().y(), box.max().z()};
+}
+
+std::unique_ptr<LevelSet> LevelSet::deep_copy() const { return wrap(impl->grid->deepCopy()); }
+
+void LevelSet::set_leaf(std::array<int32_t, 3> origin, rust::Slice<const float> values) {
+  using Leaf = FloatTree::LeafNodeType;
+  if (values.size() != Leaf::SIZE)
+    throw std::invalid_argument("a leaf holds 512 values, got " + std::to_string(values.size()));
+  const float bg = impl->grid->background();
+  Leaf* leaf = impl->grid->tree().touchLeaf(Coord(origin[0], origin[1], origin[2]));
+  for (openvdb::Index n = 0; n < Leaf::SIZE; ++n) {
+    const float v = values[n];
+    if (std::fabs(v) < bg) {
+      leaf->setValueOn(n, v);
+    } else {
+      leaf->setValueOff(n, v < 0.f ? -bg : bg);
+    }
+  }
+}
+
+void LevelSet::finish_build() {
+  openvdb::tools::signedFloodFill(impl->grid->tree());
+  openvdb::tools::pruneLevelSet(impl->grid->tree());
+}
+
+double LevelSet::volume() const {
+  const double h = voxel_size();
+  const double eps = 1.5 * h;
+  double sum = 0.0;
+  for (auto it = impl->grid->cbeginValueAll(); it; ++it) {
+    const double f = inside_fraction(*it, eps);
+    if (f > 0.0) sum += f * double(it.getVoxelCount());
+  }
+  return sum * h * h * h;
+}
+
+static void require_same_transform(const FloatGrid& a, const FloatGrid& b, const char* op) {
+  if (a.transform() != b.transform())
+    throw std::invalid_argument(std::string(op) + ": grids '" + a.getName() + "' and '" +
+                                b.getName() + "' have different transforms (voxel size or origin)");
+}
+
+void LevelSet::csg_difference(const LevelSet& other) {
+  require_same_transform(*impl->grid, *other.impl->grid, "CSG difference");
+  auto tool = other.impl->grid->deepCopy();  // csgDifference empties its second argument
+  openvdb::tools::csgDifference(*impl->grid, *tool);
+}
+
+void LevelSet::csg_union(const LevelSet& other) {
+  require_same_transform(*impl->grid, *other.impl->grid, "CSG union");
+  auto tool = other.impl->grid->deepCopy();
+  openvdb::tools::csgUnion(*impl->grid, *tool);
+}
+
+void LevelSet::csg_intersection(const LevelSet& other) {
+  require_same_transform(*impl->grid, *other.impl->grid, "CSG intersection");
+  auto tool = other.impl->grid->deepCopy();
+  openvdb::tools::csgIntersection(*impl->grid, *tool);
+}
+
+void LevelSet::set_meta_string(rust::Str key, rust::Str value) {
+  impl->grid->insertMeta(std::string(key), openvdb::StringMetadata(std::string(value)));
+}
+void LevelSet::set_meta_f64(rust::Str key, double value) {
+  impl->grid->insertMeta(std::string(key), openvdb::DoubleMetadata(value));
+}
+void LevelSet::set_meta_i64(rust::Str key, int64_t value) {
+  impl->grid->insertMeta(std::string(key), openvdb::Int64Metadata(value));
+}
+void LevelSet::set_meta_vec3(rust::Str key, std::array<float, 3> v) {
+  impl->grid->insertMeta(std::string(key), openvdb::Vec3SMetadata(openvdb::Vec3s(v[0], v[1], v[2])));
+}
+
+rust::Vec<rust::String> LevelSet::meta_keys() const {
+  rust::Vec<rust::String> keys;
+  for (auto it = impl->grid->beginMeta(); it != impl->grid->endMeta(); ++it)
+    keys.push_back(rust::String(it->first));
+  return keys;
+}
+
+static openvdb::Metadata::ConstPtr find_meta(const FloatGrid& g, rust::Str key) {
+  auto m = g[std::string(key)];
+  if (!m)
+    throw std::out_of_range("grid '" + g.getName() + "' has no metadata '" + std::string(key) + "'");
+  return m;
+}
+
+rust::String LevelSet::meta_type(rust::Str key) const {
+  return rust::String(find_meta(*impl->grid, key)->typeName());
+}
+
+rust::String LevelSet::meta_string(rust::Str key) const {
+  return rust::String(find_meta(*impl->grid, key)->str());
+}
+
+double LevelSet::meta_f64(rust::Str key) const {
+  auto m = find_meta(*impl->grid, key);
+  if (auto d = openvdb::DynamicPtrCast<const openvdb::DoubleMetadata>(m)) return d->value();
+  if (auto f = openvdb::DynamicPtrCast<const openvdb::FloatMetadata>(m)) return f->value();
+  if (auto i = openvdb::DynamicPtrCast<const openvdb::Int64Metadata>(m)) return double(i->value());
+  if (auto i = openvdb::DynamicPtrCast<const openvdb::Int32Metadata>(m)) return double(i->value());
+  throw std::invalid_argument("metadata '" + std::string(key) + "' of grid '" +
+                              impl->grid->getName() + "' is " + m->typeName() +
+                              ", expected a number");
+}
+
+std::array<float, 3> LevelSet::meta_vec3(rust::Str key) const {
+  auto m = find_meta(*impl->grid, key);
+  if (auto v = openvdb::DynamicPtrCast<const openvdb::Vec3SMetadata>(m))
+    return {v->value().x(), v->value().y(), v->value().z()};
+  if (auto v = openvdb::DynamicPtrCast<const openvdb::Vec3DMetadata>(m))
+    return {float(v->value().x()), float(v->value().y()), float(v->value().z())};
+  throw std::invalid_argument("metadata '" + std::string(key) + "' of grid '" +
+                              impl->grid->getName() + "' is " + m->typeName() +
+                              ", expected vec3s");
+}
+
+}  // namespace dentsim::vdb

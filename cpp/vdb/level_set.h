@@ -1,0 +1,112 @@
+// The C++ side of crates/vdb: narrow-band level sets over OpenVDB 10.
+//
+// Every type is pimpl so that OpenVDB, TBB and Boost headers stay inside cpp/vdb/*.cc and out of
+// the cxx-generated code. Coordinates are world millimetres unless a name says "index".
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+
+#include "rust/cxx.h"
+
+namespace dentsim::vdb {
+
+struct MeshBuffers;
+struct CutStats;
+
+class LevelSet {
+public:
+  struct Impl;
+  explicit LevelSet(std::unique_ptr<Impl> impl);
+  ~LevelSet();
+
+  double voxel_size() const;
+  float background() const;
+  rust::String name() const;
+  void set_name(rust::Str name);
+  uint64_t active_voxel_count() const;
+  uint64_t leaf_count() const;
+  uint64_t mem_bytes() const;
+  std::array<int32_t, 6> index_bbox() const;
+  std::unique_ptr<LevelSet> deep_copy() const;
+
+  // Building from leaves: values of one 8^3 leaf, x slowest (OpenVDB's leaf order).
+  void set_leaf(std::array<int32_t, 3> origin, rust::Slice<const float> values);
+  void finish_build();
+
+  // Volume enclosed (mm^3): smoothed Heaviside over every voxel and tile.
+  double volume() const;
+
+  // Local cutting: v = max(v, -tool) over a dense patch of tool distances (x fastest).
+  CutStats subtract_dense(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
+                          rust::Slice<const float> tool);
+
+  void csg_difference(const LevelSet& other);
+  void csg_union(const LevelSet& other);
+  void csg_intersection(const LevelSet& other);
+
+  MeshBuffers to_mesh() const;
+
+  void set_meta_string(rust::Str key, rust::Str value);
+  void set_meta_f64(rust::Str key, double value);
+  void set_meta_i64(rust::Str key, int64_t value);
+  void set_meta_vec3(rust::Str key, std::array<float, 3> value);
+  rust::Vec<rust::String> meta_keys() const;
+  rust::String meta_type(rust::Str key) const;
+  rust::String meta_string(rust::Str key) const;
+  double meta_f64(rust::Str key) const;
+  std::array<float, 3> meta_vec3(rust::Str key) const;
+
+  // Benchmark peers: what plain OpenVDB code would do for the same job.
+  double peer_sample_sum(rust::Slice<const float> xyz) const;
+  void peer_sphere_cut(std::array<double, 3> center, double radius);
+  uint64_t peer_full_mesh() const;
+
+  std::unique_ptr<Impl> impl;
+};
+
+// A cached, unregistered accessor for one thread; trilinear value and gradient.
+class Reader {
+public:
+  struct Impl;
+  explicit Reader(std::unique_ptr<Impl> impl);
+  ~Reader();
+  float value(double x, double y, double z);
+  std::array<float, 4> value_gradient(double x, double y, double z);
+  void values(rust::Slice<const float> xyz, rust::Slice<float> out);
+  std::unique_ptr<Impl> impl;
+};
+
+// Named grids on their way to or from a .vdb file.
+class GridList {
+public:
+  struct Impl;
+  explicit GridList(std::unique_ptr<Impl> impl);
+  ~GridList();
+  void push(const LevelSet& grid);
+  size_t len() const;
+  rust::String grid_name(size_t i) const;
+  rust::String grid_type(size_t i) const;
+  rust::String grid_class(size_t i) const;
+  std::unique_ptr<LevelSet> take(size_t i);
+  void write_file(rust::Str path) const;
+  std::unique_ptr<Impl> impl;
+};
+
+std::unique_ptr<LevelSet> new_level_set(double voxel_size, double half_width);
+std::unique_ptr<LevelSet> level_set_sphere(std::array<double, 3> center, double radius,
+                                           double voxel_size, double half_width);
+std::unique_ptr<LevelSet> level_set_from_mesh(rust::Slice<const float> points,
+                                              rust::Slice<const uint32_t> triangles,
+                                              double voxel_size, double half_width);
+std::unique_ptr<LevelSet> level_set_from_dense(std::array<uint32_t, 3> dims,
+                                               std::array<double, 16> index_to_world,
+                                               rust::Slice<const float> values, float iso,
+                                               bool inside_above, double voxel_size,
+                                               double half_width);
+std::unique_ptr<Reader> new_reader(const LevelSet& grid);
+std::unique_ptr<GridList> new_grid_list();
+std::unique_ptr<GridList> read_file(rust::Str path);
+
+}  // namespace dentsim::vdb

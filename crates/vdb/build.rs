@@ -1,0 +1,25 @@
+// Compiles cpp/vdb against Debian's OpenVDB 10 (see REFERENCE.md "Building on Debian 12").
+use std::path::Path;
+
+const SOURCES: [&str; 6] = ["level_set.cc", "reader.cc", "cut.cc", "mesh.cc", "files.cc", "peer.cc"];
+
+fn main() {
+    let cpp = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../cpp");
+    let vdb = cpp.join("vdb");
+    cxx_build::bridge("src/sys.rs")
+        .files(SOURCES.iter().map(|s| vdb.join(s)))
+        .include(&cpp)
+        .std("c++17")
+        // OpenVDB's templates are far too slow unoptimised, even in test builds.
+        .opt_level(2)
+        .flag_if_supported("-Wno-deprecated-declarations")
+        .flag_if_supported("-Wno-unused-parameter")
+        .compile("dentsim-vdb-cpp");
+    for lib in ["openvdb", "tbb", "Imath-3_1"] {
+        println!("cargo:rustc-link-lib={lib}");
+    }
+    println!("cargo:rerun-if-changed=src/sys.rs");
+    for entry in std::fs::read_dir(&vdb).expect("cpp/vdb exists") {
+        println!("cargo:rerun-if-changed={}", entry.expect("readable dir").path().display());
+    }
+}

@@ -1,0 +1,364 @@
+use std::marker::PhantomData;
+
+use cxx::UniquePtr;
+use glam::{DVec3, IVec3, Vec3};
+
+use crate::error::{openvdb, Error, Result};
+use crate::mesh::TriMesh;
+use crate::sys::ffi;
+use crate::LEAF_DIM;
+
+/// A narrow-band level set: `FloatGrid` of class level set, background = half width in mm.
+pub struct LevelSet {
+    inner: UniquePtr<ffi::LevelSet>,
+}
+
+/// An inclusive box of voxel indices.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct IndexBox {
+    pub min: IVec3,
+    pub max: IVec3,
+}
+
+/// Tool signed distances (mm) at the centres of a box of voxels, x fastest.
+#[derive(Clone, Debug, Default)]
+pub struct DensePatch {
+    pub index_min: IVec3,
+    pub dims: [u32; 3],
+    pub values: Vec<f32>,
+}
+
+/// A scalar volume on a regular grid: value `n = i + nx * (j + ny * k)` sits at
+/// `index_to_world * (i, j, k, 1)` (row-major 4×4, mm).
+#[derive(Clone, Debug)]
+pub struct DenseVolume<'a> {
+    pub dims: [u32; 3],
+    pub index_to_world: [f64; 16],
+    pub values: &'a [f32],
+}
+
+/// What a local cut changed.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CutStats {
+    pub changed_voxels: u64,
+    /// Enclosed volume removed (mm³), measured as [`LevelSet::volume`] measures.
+    pub removed_mm3: f64,
+}
+
+/// A grid metadata value as stored in the .vdb file.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MetaValue {
+    String(String),
+    F64(f64),
+    I64(i64),
+    Vec3(Vec3),
+}
+
+impl LevelSet {
+    /// An empty level set (everything outside).
+    pub fn new(voxel_size: f64, half_width: f64) -> Result<Self> {
+        Self::wrap(ffi::new_level_set(voxel_size, half_width), "create level set")
+    }
+
+    /// OpenVDB's own sphere builder (`createLevelSetSphere`).
+    pub fn sphere(center: DVec3, radius: f64, voxel_size: f64, half_width: f64) -> Result<Self> {
+        Self::wrap(
+            ffi::level_set_sphere(center.to_array(), radius, voxel_size, half_width),
+            "build sphere",
+        )
+    }
+
+    /// Samples a signed distance function (mm, negative inside, |∇| ≤ 1) in the narrow band
+    /// around its zero set inside `min..max`. Leaves whose centre lies farther from the surface
+    /// than their half-diagonal plus the band are skipped, so the cost follows the surface area.
+    pub fn from_sdf(
+        voxel_size: f64,
+        half_width: f64,
+        min: DVec3,
+        max: DVec3,
+        sdf: impl Fn(DVec3) -> f64,
+    ) -> Result<Self> {
+        let mut out = Self::new(voxel_size, half_width)?;
+        if !(min.is_finite() && max.is_finite() && min.cmple(max).all()) {
+            return Err(Error::Invalid {
+                op: "build from SDF",
+                message: format!("bounds {min} .. {max} are not a box"),
+            });
+        }
+        let band = f64::from(out.background());
+        let h = voxel_size;
+        let reach = (half_width.ceil() as i32) + 1;
+        let lo = (min / h).floor().as_ivec3() - IVec3::splat(reach);
+        let hi = (max / h).ceil().as_ivec3() + IVec3::splat(reach);
+        let leaf_lo = lo.div_euclid(IVec3::splat(LEAF_DIM)) * LEAF_DIM;
+        let half_diagonal = f64::from(LEAF_DIM) * h * 3f64.sqrt() / 2.0;
+        let mut values = vec![0f32; (LEAF_DIM * LEAF_DIM * LEAF_DIM) as usize];
+        let mut origin = leaf_lo;
+        while origin.x <= hi.x {
+            origin.y = leaf_lo.y;
+            while origin.y <= hi.y {
+                origin.z = leaf_lo.z;
+                while origin.z <= hi.z {
+                    let centre = (origin.as_dvec3() + f64::from(LEAF_DIM - 1) / 2.0) * h;
+                    if sdf(centre).abs() <= half_diagonal + band
+                        && sample_leaf(origin, h, band, &sdf, &mut values)
+                    {
+                        out.inner
+                            .pin_mut()
+                            .set_leaf(origin.to_array(), &values)
+                            .map_err(openvdb("build from SDF"))?;
+                    }
+                    origin.z += LEAF_DIM;
+                }
+                origin.y += LEAF_DIM;
+            }
+            origin.x += LEAF_DIM;
+        }
+        out.inner.pin_mut().finish_build();
+        Ok(out)
+    }
+
+    /// OpenVDB's `meshToLevelSet` of a closed triangle mesh (world mm).
+    pub fn from_mesh(mesh: &TriMesh, voxel_size: f64, half_width: f64) -> Result<Self> {
+        Self::wrap(
+            ffi::level_set_from_mesh(
+                &mesh.flat_points(),
+                &mesh.flat_triangles(),
+                voxel_size,
+                half_width,
+            ),
+            "mesh to level set",
+        )
+    }
+
+    /// The iso-surface of a dense volume as a level set at `voxel_size` (which may be finer than
+    /// the volume's spacing): the volume is meshed at `iso` and the mesh converted back, so no
+    /// staircase of the source grid remains. `inside_above`: material is where value > iso.
+    pub fn from_dense(
+        volume: &DenseVolume<'_>,
+        iso: f32,
+        inside_above: bool,
+        voxel_size: f64,
+        half_width: f64,
+    ) -> Result<Self> {
+        Self::wrap(
+            ffi::level_set_from_dense(
+                volume.dims,
+                volume.index_to_world,
+                volume.values,
+                iso,
+                inside_above,
+                voxel_size,
+                half_width,
+            ),
+            "dense volume to level set",
+        )
+    }
+
+    fn wrap(made: Result<UniquePtr<ffi::LevelSet>, cxx::Exception>, op: &'static str) -> Result<Self> {
+        let inner = made.map_err(openvdb(op))?;
+        Ok(LevelSet { inner })
+    }
+
+    pub(crate) fn from_inner(inner: UniquePtr<ffi::LevelSet>) -> Self {
+        LevelSet { inner }
+    }
+
+    pub(crate) fn inner(&self) -> &ffi::LevelSet {
+        &self.inner
+    }
+
+    pub fn voxel_size(&self) -> f64 {
+        self.inner.voxel_size()
+    }
+
+    /// Narrow-band half width in mm (the grid's background value).
+    pub fn background(&self) -> f32 {
+        self.inner.background()
+    }
+
+    pub fn name(&self) -> String {
+        self.inner.name()
+    }
+
+    pub fn set_name(&mut self, name: &str) {
+        self.inner.pin_mut().set_name(name);
+    }
+
+    pub fn active_voxel_count(&self) -> u64 {
+        self.inner.active_voxel_count()
+    }
+
+    pub fn leaf_count(&self) -> u64 {
+        self.inner.leaf_count()
+    }
+
+    /// Bytes held by the tree, as OpenVDB's `memUsage` counts them.
+    pub fn mem_bytes(&self) -> u64 {
+        self.inner.mem_bytes()
+    }
+
+    /// Bounding box of the active voxels, or `None` for an empty grid.
+    pub fn index_bbox(&self) -> Option<IndexBox> {
+        let b = self.inner.index_bbox();
+        let (min, max) = (IVec3::new(b[0], b[1], b[2]), IVec3::new(b[3], b[4], b[5]));
+        min.cmple(max).all().then_some(IndexBox { min, max })
+    }
+
+    /// Voxel index whose centre is nearest to a world point.
+    pub fn world_to_index(&self, p: DVec3) -> IVec3 {
+        (p / self.voxel_size()).round().as_ivec3()
+    }
+
+    pub fn index_to_world(&self, ijk: IVec3) -> DVec3 {
+        ijk.as_dvec3() * self.voxel_size()
+    }
+
+    /// Enclosed volume in mm³ (smoothed Heaviside over ±1.5 voxels, summed over the tree).
+    pub fn volume(&self) -> f64 {
+        self.inner.volume()
+    }
+
+    /// A reader for one thread; the grid cannot change while it lives.
+    pub fn reader(&self) -> Reader<'_> {
+        Reader { inner: ffi::new_reader(&self.inner), _grid: PhantomData }
+    }
+
+    /// Local CSG difference: every voxel of the patch takes `max(value, -tool)`.
+    pub fn subtract(&mut self, patch: &DensePatch) -> Result<CutStats> {
+        let s = self
+            .inner
+            .pin_mut()
+            .subtract_dense(patch.index_min.to_array(), patch.dims, &patch.values)
+            .map_err(openvdb("subtract tool patch"))?;
+        Ok(CutStats { changed_voxels: s.changed_voxels, removed_mm3: s.removed_volume })
+    }
+
+    /// OpenVDB's `csgDifference` (the other grid is copied, not emptied).
+    pub fn csg_difference(&mut self, other: &LevelSet) -> Result<()> {
+        self.inner.pin_mut().csg_difference(&other.inner).map_err(openvdb("CSG difference"))
+    }
+
+    pub fn csg_union(&mut self, other: &LevelSet) -> Result<()> {
+        self.inner.pin_mut().csg_union(&other.inner).map_err(openvdb("CSG union"))
+    }
+
+    pub fn csg_intersection(&mut self, other: &LevelSet) -> Result<()> {
+        self.inner.pin_mut().csg_intersection(&other.inner).map_err(openvdb("CSG intersection"))
+    }
+
+    /// The zero iso-surface as triangles with outward normals (OpenVDB's `volumeToMesh`).
+    pub fn to_mesh(&self) -> TriMesh {
+        TriMesh::from_buffers(self.inner.to_mesh())
+    }
+
+    pub fn set_meta(&mut self, key: &str, value: &MetaValue) {
+        let g = self.inner.pin_mut();
+        match value {
+            MetaValue::String(s) => g.set_meta_string(key, s),
+            MetaValue::F64(v) => g.set_meta_f64(key, *v),
+            MetaValue::I64(v) => g.set_meta_i64(key, *v),
+            MetaValue::Vec3(v) => g.set_meta_vec3(key, v.to_array()),
+        }
+    }
+
+    pub fn meta_keys(&self) -> Vec<String> {
+        self.inner.meta_keys()
+    }
+
+    /// A metadata value, converted from whatever numeric type the file stored.
+    pub fn meta(&self, key: &str) -> Result<MetaValue> {
+        let op = "read metadata";
+        let kind = self.inner.meta_type(key).map_err(openvdb(op))?;
+        Ok(match kind.as_str() {
+            "string" => MetaValue::String(self.inner.meta_string(key).map_err(openvdb(op))?),
+            "int32" | "int64" => MetaValue::I64(self.inner.meta_f64(key).map_err(openvdb(op))? as i64),
+            "float" | "double" => MetaValue::F64(self.inner.meta_f64(key).map_err(openvdb(op))?),
+            "vec3s" | "vec3d" => {
+                MetaValue::Vec3(Vec3::from_array(self.inner.meta_vec3(key).map_err(openvdb(op))?))
+            }
+            other => {
+                return Err(Error::Invalid {
+                    op,
+                    message: format!("metadata '{key}' of grid '{}' has type {other}", self.name()),
+                })
+            }
+        })
+    }
+
+    /// Benchmark peer: one C++ loop of OpenVDB's `BoxSampler` over world points (x, y, z, …).
+    pub fn peer_sample_sum(&self, xyz: &[f32]) -> f64 {
+        self.inner.peer_sample_sum(xyz)
+    }
+
+    /// Benchmark peer: `createLevelSetSphere` + `csgDifference`, the usual per-stroke cut.
+    pub fn peer_sphere_cut(&mut self, center: DVec3, radius: f64) -> Result<()> {
+        self.inner
+            .pin_mut()
+            .peer_sphere_cut(center.to_array(), radius)
+            .map_err(openvdb("peer sphere cut"))
+    }
+
+    /// Benchmark peer: a full `volumeToMesh`; returns the triangle count.
+    pub fn peer_full_mesh(&self) -> u64 {
+        self.inner.peer_full_mesh()
+    }
+}
+
+impl Clone for LevelSet {
+    /// OpenVDB's `deepCopy`.
+    fn clone(&self) -> Self {
+        LevelSet { inner: self.inner.deep_copy() }
+    }
+}
+
+impl std::fmt::Debug for LevelSet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LevelSet")
+            .field("name", &self.name())
+            .field("voxel_size", &self.voxel_size())
+            .field("active_voxels", &self.active_voxel_count())
+            .finish()
+    }
+}
+
+/// Fills one leaf (x slowest, as OpenVDB stores it); true if any voxel lies in the band.
+fn sample_leaf(origin: IVec3, h: f64, band: f64, sdf: &impl Fn(DVec3) -> f64, out: &mut [f32]) -> bool {
+    let mut any = false;
+    let mut n = 0;
+    for x in 0..LEAF_DIM {
+        for y in 0..LEAF_DIM {
+            for z in 0..LEAF_DIM {
+                let d = sdf((origin + IVec3::new(x, y, z)).as_dvec3() * h);
+                any |= d.abs() < band;
+                out[n] = d as f32;
+                n += 1;
+            }
+        }
+    }
+    any
+}
+
+/// Trilinear sampling through a cached accessor; one per thread.
+pub struct Reader<'a> {
+    inner: UniquePtr<ffi::Reader>,
+    _grid: PhantomData<&'a LevelSet>,
+}
+
+impl Reader<'_> {
+    /// Signed distance (mm) at a world point.
+    pub fn value(&mut self, p: DVec3) -> f32 {
+        self.inner.pin_mut().value(p.x, p.y, p.z)
+    }
+
+    /// Signed distance and its gradient (of the trilinear interpolant) at a world point.
+    pub fn value_gradient(&mut self, p: DVec3) -> (f32, Vec3) {
+        let [v, gx, gy, gz] = self.inner.pin_mut().value_gradient(p.x, p.y, p.z);
+        (v, Vec3::new(gx, gy, gz))
+    }
+
+    /// Values at many points (x, y, z, …) in one call.
+    pub fn values(&mut self, xyz: &[f32], out: &mut [f32]) {
+        self.inner.pin_mut().values(xyz, out);
+    }
+}
