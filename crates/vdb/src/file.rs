@@ -42,6 +42,9 @@ pub fn read_file(path: &Path) -> Result<Vec<FileGrid>> {
     }
     let path_str = path.to_str().ok_or_else(|| file_err("path is not valid UTF-8".into()))?;
     let mut list = ffi::read_file(path_str).map_err(|e| file_err(e.what().to_owned()))?;
+    if list.len() == 0 {
+        return Err(file_err("holds no grids (empty or truncated file)".into()));
+    }
     let mut out = Vec::with_capacity(list.len());
     for i in 0..list.len() {
         let describe = |r: Result<String, cxx::Exception>| r.map_err(|e| file_err(e.what().to_owned()));
