@@ -1,0 +1,125 @@
+//! Tissue surfaces to files ParaView and CAD tools open: VTK XML PolyData (.vtp) and binary STL.
+//! Every file is written under a temporary name and renamed, so none is ever half-written.
+use std::io::Write;
+use std::path::Path;
+
+use dentsim_vdb::TriMesh;
+
+use crate::error::{Error, Result};
+use crate::tissue::TissueProps;
+
+/// Writes `path` through `fill`; on any failure nothing is left at `path` or beside it.
+pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {
+    let file_err = |e: std::io::Error| Error::File { path: path.to_owned(), message: e.to_string() };
+    let name = path.file_name().and_then(|n| n.to_str()).ok_or_else(|| Error::File {
+        path: path.to_owned(),
+        message: "not a file path".into(),
+    })?;
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let result = (|| {
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
+        fill(&mut w)?;
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result.map_err(file_err)
+}
+
+/// VTK XML PolyData with `Normals` per point, the tissue `Tissue` label per cell, and the
+/// tissue's mechanics as field data (`Stiffness` N/mm, `Damping` N·s/mm, `RemovalRate`).
+pub fn write_vtp(path: &Path, mesh: &TriMesh, tissue: &TissueProps) -> Result<()> {
+    let points: Vec<f32> = mesh.points.iter().flat_map(|p| p.to_array()).collect();
+    let normals: Vec<f32> = mesh.normals.iter().flat_map(|p| p.to_array()).collect();
+    let connectivity: Vec<i64> = mesh.triangles.iter().flatten().map(|&i| i64::from(i)).collect();
+    let offsets: Vec<i64> = (1..=mesh.triangles.len() as i64).map(|i| 3 * i).collect();
+    let labels = vec![i32::from(tissue.label); mesh.triangles.len()];
+    let arrays: [(&str, &str, usize, Vec<u8>); 8] = [
+        ("Stiffness", "Float64", 1, bytes(&[tissue.stiffness_n_per_mm])),
+        ("Damping", "Float64", 1, bytes(&[tissue.damping_n_s_per_mm])),
+        ("RemovalRate", "Float64", 1, bytes(&[tissue.removal_rate_mm3_per_n_s])),
+        ("Normals", "Float32", 3, bytes(&normals)),
+        ("Points", "Float32", 3, bytes(&points)),
+        ("Tissue", "Int32", 1, bytes(&labels)),
+        ("connectivity", "Int64", 1, bytes(&connectivity)),
+        ("offsets", "Int64", 1, bytes(&offsets)),
+    ];
+    let mut offset = 0usize;
+    let mut tags = Vec::new();
+    for (name, kind, components, data) in &arrays {
+        tags.push(format!(
+            r#"<DataArray type="{kind}" Name="{name}" NumberOfComponents="{components}" NumberOfTuples="{}" format="appended" offset="{offset}"/>"#,
+            data.len() / components / kind_size(kind)
+        ));
+        offset += 8 + data.len();
+    }
+    let (n_points, n_polys) = (mesh.points.len(), mesh.triangles.len());
+    write_atomic(path, |w| {
+        writeln!(w, r#"<?xml version="1.0"?>"#)?;
+        writeln!(w, r#"<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#)?;
+        writeln!(w, "<PolyData>\n<FieldData>\n{}\n{}\n{}\n</FieldData>", tags[0], tags[1], tags[2])?;
+        writeln!(w, r#"<Piece NumberOfPoints="{n_points}" NumberOfVerts="0" NumberOfLines="0" NumberOfStrips="0" NumberOfPolys="{n_polys}">"#)?;
+        writeln!(w, "<PointData Normals=\"Normals\">\n{}\n</PointData>", tags[3])?;
+        writeln!(w, "<CellData Scalars=\"Tissue\">\n{}\n</CellData>", tags[5])?;
+        writeln!(w, "<Points>\n{}\n</Points>", tags[4])?;
+        writeln!(w, "<Polys>\n{}\n{}\n</Polys>", tags[6], tags[7])?;
+        writeln!(w, "</Piece>\n</PolyData>\n<AppendedData encoding=\"raw\">")?;
+        w.write_all(b"_")?;
+        for (_, _, _, data) in &arrays {
+            w.write_all(&(data.len() as u64).to_le_bytes())?;
+            w.write_all(data)?;
+        }
+        writeln!(w, "\n</AppendedData>\n</VTKFile>")
+    })
+}
+
+/// Binary STL with per-facet normals from the triangles' winding.
+pub fn write_stl(path: &Path, mesh: &TriMesh) -> Result<()> {
+    let facets: Vec<stl_io::Triangle> = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| mesh.points[i as usize]);
+            let n = (b - a).cross(c - a).normalize_or_zero();
+            stl_io::Triangle {
+                normal: stl_io::Normal::new(n.to_array()),
+                vertices: [a, b, c].map(|v| stl_io::Vertex::new(v.to_array())),
+            }
+        })
+        .collect();
+    write_atomic(path, |w| stl_io::write_stl(&mut WriteRef(w), facets.iter()))
+}
+
+struct WriteRef<'a>(&'a mut dyn Write);
+
+impl Write for WriteRef<'_> {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        self.0.write(buf)
+    }
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.0.flush()
+    }
+}
+
+trait LeBytes: Copy {
+    fn le(self, out: &mut Vec<u8>);
+}
+macro_rules! le_bytes {
+    ($($t:ty),*) => {$(impl LeBytes for $t { fn le(self, out: &mut Vec<u8>) { out.extend_from_slice(&self.to_le_bytes()) } })*};
+}
+le_bytes!(f32, f64, i32, i64);
+
+fn bytes<T: LeBytes>(values: &[T]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(values.len() * std::mem::size_of::<T>());
+    values.iter().for_each(|v| v.le(&mut out));
+    out
+}
+
+fn kind_size(kind: &str) -> usize {
+    match kind {
+        "Float64" | "Int64" => 8,
+        _ => 4,
+    }
+}

@@ -1,0 +1,117 @@
+//! A tooth as one narrow-band level set per tissue, each enclosing only its own material.
+use std::path::Path;
+
+use dentsim_vdb::{LevelSet, MetaValue};
+use glam::Vec3;
+
+use crate::error::{invalid, Error, Result};
+use crate::tissue::{TissueProps, TissueTable};
+
+pub struct Tissue {
+    pub props: TissueProps,
+    pub grid: LevelSet,
+}
+
+/// Every tissue's grid shares one transform (voxel size, origin at world zero).
+pub struct TissueModel {
+    pub tissues: Vec<Tissue>,
+    /// Where the tissues came from (scan file, phantom name); no patient identifiers.
+    pub source: String,
+    /// FDI (ISO 3950) number of the tooth, when known.
+    pub fdi_tooth: Option<u8>,
+}
+
+impl TissueModel {
+    pub fn new(source: impl Into<String>, fdi_tooth: Option<u8>) -> Self {
+        TissueModel { tissues: Vec::new(), source: source.into(), fdi_tooth }
+    }
+
+    pub fn voxel_size(&self) -> Option<f64> {
+        self.tissues.first().map(|t| t.grid.voxel_size())
+    }
+
+    /// Adds a tissue; its grid is renamed after it.
+    pub fn push(&mut self, props: TissueProps, mut grid: LevelSet) -> Result<()> {
+        if let Some(h) = self.voxel_size() {
+            if grid.voxel_size() != h {
+                return Err(invalid(
+                    format!("tissue '{}'", props.name),
+                    format!("voxel size {} mm differs from the model's {h} mm", grid.voxel_size()),
+                ));
+            }
+        }
+        if self.get(&props.name).is_some() {
+            return Err(invalid(format!("tissue '{}'", props.name), "is already in the model"));
+        }
+        grid.set_name(&props.name);
+        self.tissues.push(Tissue { props, grid });
+        Ok(())
+    }
+
+    pub fn get(&self, name: &str) -> Option<&Tissue> {
+        self.tissues.iter().find(|t| t.props.name == name)
+    }
+
+    /// Each tissue's enclosed volume, mm³.
+    pub fn volumes(&self) -> Vec<(String, f64)> {
+        self.tissues.iter().map(|t| (t.props.name.clone(), t.grid.volume())).collect()
+    }
+
+    /// Writes one .vdb with a grid per tissue carrying its properties as metadata.
+    pub fn save(&mut self, path: &Path) -> Result<()> {
+        for t in &mut self.tissues {
+            let p = &t.props;
+            let g = &mut t.grid;
+            g.set_meta("tissue", &MetaValue::String(p.name.clone()));
+            g.set_meta("label", &MetaValue::I64(p.label.into()));
+            g.set_meta("colour", &MetaValue::Vec3(Vec3::from_array(p.colour)));
+            g.set_meta("opacity", &MetaValue::F64(p.opacity.into()));
+            g.set_meta("stiffness_n_per_mm", &MetaValue::F64(p.stiffness_n_per_mm));
+            g.set_meta("damping_n_s_per_mm", &MetaValue::F64(p.damping_n_s_per_mm));
+            g.set_meta("removal_rate_mm3_per_n_s", &MetaValue::F64(p.removal_rate_mm3_per_n_s));
+            g.set_meta("source", &MetaValue::String(self.source.clone()));
+            if let Some(fdi) = self.fdi_tooth {
+                g.set_meta("fdi_tooth", &MetaValue::I64(fdi.into()));
+            }
+        }
+        let grids: Vec<&LevelSet> = self.tissues.iter().map(|t| &t.grid).collect();
+        dentsim_vdb::write_file(path, &grids)?;
+        Ok(())
+    }
+
+    /// Reads a .vdb whose level-set grids are named by tissue. Properties stored with a grid win;
+    /// missing ones (files from other tools) come from `table`.
+    pub fn load(path: &Path, table: &TissueTable) -> Result<Self> {
+        let file_err = |message: String| Error::File { path: path.to_owned(), message };
+        let mut model = TissueModel::new(path.display().to_string(), None);
+        for g in dentsim_vdb::read_file(path)? {
+            let Some(grid) = g.level_set else {
+                return Err(file_err(format!("grid '{}' is {}, expected a float level set", g.name, g.grid_type)));
+            };
+            if g.grid_class != "level set" {
+                return Err(file_err(format!("grid '{}' is of class '{}', expected 'level set'", g.name, g.grid_class)));
+            }
+            let Some(defaults) = table.get(&g.name) else {
+                let known: Vec<_> = table.tissues.iter().map(|t| t.name.as_str()).collect();
+                return Err(file_err(format!("grid '{}' is not a tissue (known: {})", g.name, known.join(", "))));
+            };
+            let mut props = defaults.clone();
+            let number = |key: &str| match grid.meta(key) {
+                Ok(MetaValue::F64(v)) => Some(v),
+                Ok(MetaValue::I64(v)) => Some(v as f64),
+                _ => None,
+            };
+            if let Some(v) = number("stiffness_n_per_mm") { props.stiffness_n_per_mm = v; }
+            if let Some(v) = number("damping_n_s_per_mm") { props.damping_n_s_per_mm = v; }
+            if let Some(v) = number("removal_rate_mm3_per_n_s") { props.removal_rate_mm3_per_n_s = v; }
+            if let Some(v) = number("opacity") { props.opacity = v as f32; }
+            if let Ok(MetaValue::Vec3(c)) = grid.meta("colour") { props.colour = c.to_array(); }
+            if let Some(v) = number("fdi_tooth") { model.fdi_tooth = Some(v as u8); }
+            if let Ok(MetaValue::String(s)) = grid.meta("source") { model.source = s; }
+            model.push(props, grid).map_err(|e| file_err(e.to_string()))?;
+        }
+        // OpenVDB hands grids back in name order; keep the table's (label) order instead.
+        model.tissues.sort_by_key(|t| t.props.label);
+        Ok(model)
+    }
+}
