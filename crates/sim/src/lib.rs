@@ -1,5 +1,6 @@
 //! Tissues, burrs and cutting over OpenVDB level sets. Knows nothing of C++.
 
+pub mod bench;
 pub mod burr;
 pub mod cut;
 pub mod error;

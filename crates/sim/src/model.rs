@@ -7,12 +7,14 @@ use glam::Vec3;
 use crate::error::{invalid, Error, Result};
 use crate::tissue::{TissueProps, TissueTable};
 
+#[derive(Clone)]
 pub struct Tissue {
     pub props: TissueProps,
     pub grid: LevelSet,
 }
 
 /// Every tissue's grid shares one transform (voxel size, origin at world zero).
+#[derive(Clone)]
 pub struct TissueModel {
     pub tissues: Vec<Tissue>,
     /// Where the tissues came from (scan file, phantom name); no patient identifiers.

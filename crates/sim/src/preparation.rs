@@ -20,9 +20,9 @@ pub struct PhantomStroke {
 }
 
 impl Default for PhantomStroke {
-    /// Across the occlusal end, through 1.5 mm of enamel and 0.2 mm into dentin.
+    /// A groove opening at the occlusal surface and deepening through the enamel into dentin.
     fn default() -> Self {
-        PhantomStroke { voxel_size_mm: 0.05, burr_diameter_mm: 1.0, start_mm: [-2.0, 0.0, 3.3], end_mm: [2.0, 0.0, 3.3] }
+        PhantomStroke { voxel_size_mm: 0.05, burr_diameter_mm: 1.0, start_mm: [-2.0, 0.0, 4.2], end_mm: [1.0, 0.0, 2.9] }
     }
 }
 

@@ -1,0 +1,1 @@
+//! CBCT volumes: readers, phantom, calibration, segmentation (arriving with issue 3).

@@ -1,0 +1,28 @@
+//! `dentsim`: batch preparation planning and measurement from the command line.
+mod bench;
+mod demo;
+mod progress;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "dentsim", version, about = "Haptic dental preparation simulator and planner")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Build the phantom, cut a stroke, write surfaces, tissues.vdb and summary.json.
+    Demo(demo::Args),
+    /// Time dentsim beside its peer (plain OpenVDB and mesh-based ways) in the same run.
+    Bench(bench::Args),
+}
+
+fn main() -> anyhow::Result<()> {
+    match Cli::parse().command {
+        Command::Demo(args) => demo::run(&args),
+        Command::Bench(args) => bench::run(&args),
+    }
+}

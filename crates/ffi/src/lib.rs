@@ -1,0 +1,135 @@
+//! The one contract between the ParaView plugin and the Rust core. Plain data crosses as shared
+//! structs; every call returns `Result`, which cxx turns into a C++ `rust::Error` exception, and
+//! no panic crosses: each call runs under `catch_unwind`.
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use dentsim_sim::preparation::PhantomStroke;
+use dentsim_sim::tissue::TissueTable;
+
+#[cxx::bridge(namespace = "dentsim::ffi")]
+mod bridge {
+    /// A straight stroke of a round burr over the capsule phantom (mm).
+    struct StrokeParams {
+        voxel_size_mm: f64,
+        burr_diameter_mm: f64,
+        start_mm: [f64; 3],
+        end_mm: [f64; 3],
+    }
+
+    /// One tissue's surface (triangles wound outward) with its properties and volumes.
+    struct TissueSurface {
+        name: String,
+        label: i32,
+        colour: [f32; 3],
+        opacity: f32,
+        stiffness_n_per_mm: f64,
+        damping_n_s_per_mm: f64,
+        removal_rate_mm3_per_n_s: f64,
+        volume_before_mm3: f64,
+        volume_after_mm3: f64,
+        removed_mm3: f64,
+        points: Vec<f32>,
+        normals: Vec<f32>,
+        triangles: Vec<u32>,
+    }
+
+    extern "Rust" {
+        fn default_stroke() -> StrokeParams;
+        fn phantom_stroke(params: &StrokeParams) -> Result<Vec<TissueSurface>>;
+        fn version() -> String;
+    }
+}
+
+pub use bridge::{StrokeParams, TissueSurface};
+
+/// Runs `f`, turning a panic into an error so it never unwinds into C++.
+fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
+    match catch_unwind(AssertUnwindSafe(f)) {
+        Ok(result) => result,
+        Err(panic) => {
+            let message = panic
+                .downcast_ref::<&str>()
+                .map(|s| s.to_string())
+                .or_else(|| panic.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "unknown panic".into());
+            Err(format!("{what}: internal error: {message}"))
+        }
+    }
+}
+
+fn default_stroke() -> StrokeParams {
+    let d = PhantomStroke::default();
+    StrokeParams { voxel_size_mm: d.voxel_size_mm, burr_diameter_mm: d.burr_diameter_mm, start_mm: d.start_mm, end_mm: d.end_mm }
+}
+
+pub fn phantom_stroke(params: &StrokeParams) -> Result<Vec<TissueSurface>, String> {
+    guarded("phantom stroke", || {
+        let stroke = PhantomStroke {
+            voxel_size_mm: params.voxel_size_mm,
+            burr_diameter_mm: params.burr_diameter_mm,
+            start_mm: params.start_mm,
+            end_mm: params.end_mm,
+        };
+        let outcome = stroke.run(&TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
+        Ok(outcome
+            .model
+            .tissues
+            .iter()
+            .zip(&outcome.tissues)
+            .map(|(t, o)| {
+                let mesh = t.grid.to_mesh();
+                let p = &t.props;
+                TissueSurface {
+                    name: p.name.clone(),
+                    label: p.label.into(),
+                    colour: p.colour,
+                    opacity: p.opacity,
+                    stiffness_n_per_mm: p.stiffness_n_per_mm,
+                    damping_n_s_per_mm: p.damping_n_s_per_mm,
+                    removal_rate_mm3_per_n_s: p.removal_rate_mm3_per_n_s,
+                    volume_before_mm3: o.volume_before_mm3,
+                    volume_after_mm3: o.volume_after_mm3,
+                    removed_mm3: o.removed_mm3,
+                    points: mesh.points.iter().flat_map(|v| v.to_array()).collect(),
+                    normals: mesh.normals.iter().flat_map(|v| v.to_array()).collect(),
+                    triangles: mesh.triangles.iter().flatten().copied().collect(),
+                }
+            })
+            .collect())
+    })
+}
+
+fn version() -> String {
+    env!("CARGO_PKG_VERSION").to_owned()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bad_parameters_come_back_as_errors() {
+        let params = StrokeParams { voxel_size_mm: -1.0, ..default_stroke() };
+        let err = phantom_stroke(&params).err().expect("refused");
+        assert!(err.contains("voxel size"), "{err}");
+    }
+
+    #[test]
+    fn panics_become_errors() {
+        let err = guarded::<()>("probe", || panic!("boom")).unwrap_err();
+        assert_eq!(err, "probe: internal error: boom");
+    }
+
+    #[test]
+    fn surfaces_carry_tissue_properties() {
+        let params = StrokeParams { voxel_size_mm: 0.1, ..default_stroke() };
+        let surfaces = phantom_stroke(&params).unwrap();
+        let names: Vec<_> = surfaces.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(names, ["enamel", "dentin", "pulp"]);
+        for s in &surfaces {
+            assert_eq!(s.points.len(), s.normals.len());
+            assert!(s.triangles.iter().all(|&i| (i as usize) < s.points.len() / 3));
+            assert!(s.stiffness_n_per_mm > 0.0);
+        }
+    }
+}

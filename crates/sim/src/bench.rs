@@ -1,0 +1,197 @@
+//! Benchmarks behind `dentsim bench`: each row times our way and the peer's way of one job in the
+//! same run, on the same data. Timings are wall-clock medians and 99th percentiles.
+use std::time::Instant;
+
+use glam::{DAffine3, DVec3};
+use serde::Serialize;
+
+use crate::burr::Burr;
+use crate::cut::Cutter;
+use crate::error::Result;
+use crate::model::TissueModel;
+use crate::phantom::CapsuleTooth;
+use crate::tissue::TissueTable;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchRow {
+    pub name: String,
+    pub ours_median_us: f64,
+    pub ours_p99_us: f64,
+    pub peer: String,
+    pub peer_median_us: f64,
+    /// Peer median ÷ our median: above 1 means dentsim is faster.
+    pub ratio: f64,
+}
+
+impl BenchRow {
+    pub fn new(name: &str, ours: &Timings, peer: &str, peer_timings: &Timings) -> Self {
+        let (ours_median_us, peer_median_us) = (ours.median(), peer_timings.median());
+        BenchRow {
+            name: name.into(),
+            ours_median_us,
+            ours_p99_us: ours.quantile(0.99),
+            peer: peer.into(),
+            peer_median_us,
+            ratio: peer_median_us / ours_median_us,
+        }
+    }
+}
+
+/// Microseconds per repetition.
+#[derive(Clone, Debug, Default)]
+pub struct Timings(pub Vec<f64>);
+
+impl Timings {
+    /// Times `reps` calls of `f`, each divided by `per_call` (items done per call).
+    pub fn measure(reps: usize, per_call: usize, mut f: impl FnMut(usize)) -> Self {
+        let mut out = Vec::with_capacity(reps);
+        for i in 0..reps {
+            let start = Instant::now();
+            f(i);
+            out.push(start.elapsed().as_secs_f64() * 1e6 / per_call as f64);
+        }
+        Timings(out)
+    }
+
+    pub fn quantile(&self, q: f64) -> f64 {
+        let mut v = self.0.clone();
+        v.sort_by(f64::total_cmp);
+        if v.is_empty() {
+            return f64::NAN;
+        }
+        v[((v.len() - 1) as f64 * q).round() as usize]
+    }
+
+    pub fn median(&self) -> f64 {
+        self.quantile(0.5)
+    }
+}
+
+/// How long to run: `quick` for a smoke run in tests, full otherwise.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchConfig {
+    pub repetitions: usize,
+}
+
+impl BenchConfig {
+    pub fn full() -> Self {
+        BenchConfig { repetitions: 400 }
+    }
+    pub fn quick() -> Self {
+        BenchConfig { repetitions: 10 }
+    }
+}
+
+/// A fixed xorshift stream so every run samples the same points.
+struct Xorshift(u64);
+
+impl Xorshift {
+    fn unit(&mut self) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn direction(&mut self) -> DVec3 {
+        let z = 2.0 * self.unit() - 1.0;
+        let a = std::f64::consts::TAU * self.unit();
+        let s = (1.0 - z * z).sqrt();
+        DVec3::new(s * a.cos(), s * a.sin(), z)
+    }
+}
+
+/// The tooth every row works on: the capsule phantom at 0.05 mm.
+pub fn bench_tooth() -> Result<TissueModel> {
+    CapsuleTooth::default().build(0.05, &TissueTable::default())
+}
+
+const SAMPLES_PER_BATCH: usize = 1000;
+
+fn points_to_flat(points: &[DVec3]) -> Vec<f32> {
+    points.iter().flat_map(|p| p.as_vec3().to_array()).collect()
+}
+
+/// SDF lookups through our reader (one FFI call each) vs OpenVDB's BoxSampler in one C++ loop.
+fn sdf_rows(model: &TissueModel, cfg: BenchConfig, name: &str, points: &[DVec3]) -> BenchRow {
+    let grid = &model.tissues[0].grid;
+    let flat = points_to_flat(points);
+    let batches = points.len() / SAMPLES_PER_BATCH;
+    let mut reader = grid.reader();
+    let mut sink = 0.0f64;
+    let ours = Timings::measure(cfg.repetitions, SAMPLES_PER_BATCH, |i| {
+        for p in &points[(i % batches) * SAMPLES_PER_BATCH..][..SAMPLES_PER_BATCH] {
+            sink += f64::from(reader.value(*p));
+        }
+    });
+    let peer = Timings::measure(cfg.repetitions, SAMPLES_PER_BATCH, |i| {
+        sink += grid.peer_sample_sum(&flat[(i % batches) * SAMPLES_PER_BATCH * 3..][..SAMPLES_PER_BATCH * 3]);
+    });
+    std::hint::black_box(sink);
+    BenchRow::new(name, &ours, "OpenVDB GridSampler<BoxSampler> in C++", &peer)
+}
+
+/// Points within 0.2 mm of one enamel surface point, as a burr's contact samples are.
+pub fn sdf_sample_near(model: &TissueModel, cfg: BenchConfig) -> BenchRow {
+    let mut rng = Xorshift(0x9e37_79b9_7f4a_7c15);
+    let centre = DVec3::new(0.0, 0.0, CapsuleTooth::default().outer.top());
+    let points: Vec<DVec3> = (0..SAMPLES_PER_BATCH * 8).map(|_| centre + rng.direction() * 0.2 * rng.unit()).collect();
+    sdf_rows(model, cfg, "sdf_sample_near", &points)
+}
+
+/// Points spread over the whole enamel surface band, so the accessor cache rarely hits.
+pub fn sdf_sample_random(model: &TissueModel, cfg: BenchConfig) -> BenchRow {
+    let mut rng = Xorshift(0x2545_f491_4f6c_dd1d);
+    let outer = CapsuleTooth::default().outer;
+    let points: Vec<DVec3> = (0..SAMPLES_PER_BATCH * 8)
+        .map(|_| {
+            let axis = DVec3::new(0.0, 0.0, (2.0 * rng.unit() - 1.0) * outer.half_length);
+            axis + rng.direction() * (outer.radius + 0.3 * (rng.unit() - 0.5))
+        })
+        .collect();
+    sdf_rows(model, cfg, "sdf_sample_random", &points)
+}
+
+/// One 1 kHz tick's stroke (0.02 mm, i.e. 20 mm/s) of a 1.0 mm round burr through enamel into
+/// dentin, applied to every tissue; peer: build a tool sphere and `csgDifference` it per tissue.
+pub fn cut_stroke(model: &TissueModel, cfg: BenchConfig) -> Result<BenchRow> {
+    let burr = Burr::round(1.0)?;
+    let top = CapsuleTooth::default().outer.top();
+    let tip = |i: usize| {
+        let s = i as f64 * 0.02;
+        DAffine3::from_translation(DVec3::new(-1.5 + s % 3.0, 0.0, top - 0.6 - 0.4 * (s / 3.0).floor()))
+    };
+    let mut ours_model = model.clone();
+    let mut cutter = Cutter::default();
+    let mut failure = None;
+    let ours = Timings::measure(cfg.repetitions, 1, |i| {
+        if let Err(e) = cutter.cut(&mut ours_model, &burr, tip(i), tip(i + 1)) {
+            failure.get_or_insert(e);
+        }
+    });
+    let mut peer_model = model.clone();
+    let peer = Timings::measure(cfg.repetitions, 1, |i| {
+        let centre = tip(i + 1).transform_point3(DVec3::new(0.0, 0.0, 0.5));
+        for t in &mut peer_model.tissues {
+            if let Err(e) = t.grid.peer_sphere_cut(centre, 0.5) {
+                failure.get_or_insert(e.into());
+            }
+        }
+    });
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(BenchRow::new("cut_stroke", &ours, "createLevelSetSphere + csgDifference", &peer)),
+    }
+}
+
+/// Every row, in a fixed order; `progress(row name)` is called before each.
+pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<BenchRow>> {
+    progress("building the tooth");
+    let model = bench_tooth()?;
+    progress("sdf_sample_near");
+    let mut rows = vec![sdf_sample_near(&model, cfg)];
+    progress("sdf_sample_random");
+    rows.push(sdf_sample_random(&model, cfg));
+    progress("cut_stroke");
+    rows.push(cut_stroke(&model, cfg)?);
+    Ok(rows)
+}

@@ -1,0 +1,98 @@
+#include "vtkDentSimSurfaces.h"
+
+#include <vtkCellArray.h>
+#include <vtkCellData.h>
+#include <vtkCompositeDataSet.h>
+#include <vtkDoubleArray.h>
+#include <vtkFieldData.h>
+#include <vtkFloatArray.h>
+#include <vtkInformation.h>
+#include <vtkIntArray.h>
+#include <vtkMultiBlockDataSet.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkStringArray.h>
+
+#include <string>
+
+namespace {
+
+void AddScalarField(vtkFieldData* fd, const char* name, double value) {
+  vtkNew<vtkDoubleArray> a;
+  a->SetName(name);
+  a->InsertNextValue(value);
+  fd->AddArray(a);
+}
+
+vtkSmartPointer<vtkPolyData> ToPolyData(const dentsim::ffi::TissueSurface& s) {
+  const vtkIdType nPoints = vtkIdType(s.points.size() / 3);
+  const vtkIdType nTris = vtkIdType(s.triangles.size() / 3);
+
+  vtkNew<vtkFloatArray> xyz;
+  xyz->SetNumberOfComponents(3);
+  xyz->SetNumberOfTuples(nPoints);
+  std::copy(s.points.begin(), s.points.end(), xyz->GetPointer(0));
+  vtkNew<vtkPoints> points;
+  points->SetData(xyz);
+
+  vtkNew<vtkFloatArray> normals;
+  normals->SetName("Normals");
+  normals->SetNumberOfComponents(3);
+  normals->SetNumberOfTuples(nPoints);
+  std::copy(s.normals.begin(), s.normals.end(), normals->GetPointer(0));
+
+  vtkNew<vtkCellArray> polys;
+  polys->AllocateExact(nTris, nTris * 3);
+  for (vtkIdType t = 0; t < nTris; ++t) {
+    const vtkIdType ids[3] = {s.triangles[3 * t], s.triangles[3 * t + 1], s.triangles[3 * t + 2]};
+    polys->InsertNextCell(3, ids);
+  }
+
+  vtkNew<vtkIntArray> tissue;
+  tissue->SetName("Tissue");
+  tissue->SetNumberOfTuples(nTris);
+  tissue->FillValue(s.label);
+
+  auto pd = vtkSmartPointer<vtkPolyData>::New();
+  pd->SetPoints(points);
+  pd->SetPolys(polys);
+  pd->GetPointData()->SetNormals(normals);
+  pd->GetCellData()->SetScalars(tissue);
+
+  vtkFieldData* fd = pd->GetFieldData();
+  vtkNew<vtkStringArray> name;
+  name->SetName("TissueName");
+  name->InsertNextValue(std::string(s.name));
+  fd->AddArray(name);
+  AddScalarField(fd, "Stiffness", s.stiffness_n_per_mm);
+  AddScalarField(fd, "Damping", s.damping_n_s_per_mm);
+  AddScalarField(fd, "RemovalRate", s.removal_rate_mm3_per_n_s);
+  AddScalarField(fd, "Opacity", s.opacity);
+  AddScalarField(fd, "VolumeBefore", s.volume_before_mm3);
+  AddScalarField(fd, "VolumeAfter", s.volume_after_mm3);
+  AddScalarField(fd, "RemovedVolume", s.removed_mm3);
+  vtkNew<vtkDoubleArray> colour;
+  colour->SetName("Colour");
+  colour->SetNumberOfComponents(3);
+  colour->InsertNextTuple3(s.colour[0], s.colour[1], s.colour[2]);
+  fd->AddArray(colour);
+  return pd;
+}
+
+}  // namespace
+
+namespace dentsim {
+
+void FillTissueBlocks(const rust::Vec<ffi::TissueSurface>& surfaces, vtkMultiBlockDataSet* out) {
+  out->SetNumberOfBlocks(static_cast<unsigned int>(surfaces.size()));
+  unsigned int i = 0;
+  for (const auto& s : surfaces) {
+    out->SetBlock(i, ToPolyData(s));
+    out->GetMetaData(i)->Set(vtkCompositeDataSet::NAME(), std::string(s.name).c_str());
+    ++i;
+  }
+}
+
+}  // namespace dentsim
