@@ -29,17 +29,20 @@ pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::R
 }
 
 /// VTK XML PolyData with `Normals` per point, the tissue `Tissue` label per cell, and the
-/// tissue's mechanics as field data (`Stiffness` N/mm, `Damping` N·s/mm, `RemovalRate`).
+/// tissue's properties as field data (`Stiffness` N/mm, `Damping` N·s/mm, `RemovalRate`
+/// mm³/(N·s), `Colour` RGB 0..1, `Opacity`).
 pub fn write_vtp(path: &Path, mesh: &TriMesh, tissue: &TissueProps) -> Result<()> {
     let points: Vec<f32> = mesh.points.iter().flat_map(|p| p.to_array()).collect();
     let normals: Vec<f32> = mesh.normals.iter().flat_map(|p| p.to_array()).collect();
     let connectivity: Vec<i64> = mesh.triangles.iter().flatten().map(|&i| i64::from(i)).collect();
     let offsets: Vec<i64> = (1..=mesh.triangles.len() as i64).map(|i| 3 * i).collect();
     let labels = vec![i32::from(tissue.label); mesh.triangles.len()];
-    let arrays: [(&str, &str, usize, Vec<u8>); 8] = [
+    let arrays: [(&str, &str, usize, Vec<u8>); 10] = [
         ("Stiffness", "Float64", 1, bytes(&[tissue.stiffness_n_per_mm])),
         ("Damping", "Float64", 1, bytes(&[tissue.damping_n_s_per_mm])),
         ("RemovalRate", "Float64", 1, bytes(&[tissue.removal_rate_mm3_per_n_s])),
+        ("Colour", "Float32", 3, bytes(&tissue.colour)),
+        ("Opacity", "Float32", 1, bytes(&[tissue.opacity])),
         ("Normals", "Float32", 3, bytes(&normals)),
         ("Points", "Float32", 3, bytes(&points)),
         ("Tissue", "Int32", 1, bytes(&labels)),
@@ -59,12 +62,12 @@ pub fn write_vtp(path: &Path, mesh: &TriMesh, tissue: &TissueProps) -> Result<()
     write_atomic(path, |w| {
         writeln!(w, r#"<?xml version="1.0"?>"#)?;
         writeln!(w, r#"<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#)?;
-        writeln!(w, "<PolyData>\n<FieldData>\n{}\n{}\n{}\n</FieldData>", tags[0], tags[1], tags[2])?;
+        writeln!(w, "<PolyData>\n<FieldData>\n{}\n</FieldData>", tags[..5].join("\n"))?;
         writeln!(w, r#"<Piece NumberOfPoints="{n_points}" NumberOfVerts="0" NumberOfLines="0" NumberOfStrips="0" NumberOfPolys="{n_polys}">"#)?;
-        writeln!(w, "<PointData Normals=\"Normals\">\n{}\n</PointData>", tags[3])?;
-        writeln!(w, "<CellData Scalars=\"Tissue\">\n{}\n</CellData>", tags[5])?;
-        writeln!(w, "<Points>\n{}\n</Points>", tags[4])?;
-        writeln!(w, "<Polys>\n{}\n{}\n</Polys>", tags[6], tags[7])?;
+        writeln!(w, "<PointData Normals=\"Normals\">\n{}\n</PointData>", tags[5])?;
+        writeln!(w, "<CellData Scalars=\"Tissue\">\n{}\n</CellData>", tags[7])?;
+        writeln!(w, "<Points>\n{}\n</Points>", tags[6])?;
+        writeln!(w, "<Polys>\n{}\n{}\n</Polys>", tags[8], tags[9])?;
         writeln!(w, "</Piece>\n</PolyData>\n<AppendedData encoding=\"raw\">")?;
         w.write_all(b"_")?;
         for (_, _, _, data) in &arrays {

@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Every test: set up, then the Rust tests (unit, property, integration, CLI end to end) and the
+# ParaView plugin tests (pvbatch under Xvfb, compared with baseline images).
+#   bash scripts/test.sh
+set -euo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
+
+cd "$DENTSIM_ROOT"
+status=0
+cargo test --release --workspace || status=1
+ctest --test-dir "$DENTSIM_PLUGIN_BUILD" --output-on-failure || status=1
+exit $status
