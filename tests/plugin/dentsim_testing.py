@@ -18,6 +18,7 @@ def parse_args():
     parser.add_argument("--plugin", required=True)
     parser.add_argument("--baselines", required=True)
     parser.add_argument("--temp", required=True)
+    parser.add_argument("--dentsim", help="the dentsim command, for tests that make input files")
     parser.add_argument("--update-baseline", action="store_true")
     return parser.parse_args()
 

@@ -3,6 +3,7 @@
 //! no panic crosses: each call runs under `catch_unwind`.
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
+use dentsim_sim::model::Tissue;
 use dentsim_sim::preparation::PhantomStroke;
 use dentsim_sim::tissue::TissueTable;
 
@@ -36,6 +37,7 @@ mod bridge {
     extern "Rust" {
         fn default_stroke() -> StrokeParams;
         fn phantom_stroke(params: &StrokeParams) -> Result<Vec<TissueSurface>>;
+        fn read_tissues(path: &str) -> Result<Vec<TissueSurface>>;
         fn version() -> String;
     }
 }
@@ -76,27 +78,46 @@ pub fn phantom_stroke(params: &StrokeParams) -> Result<Vec<TissueSurface>, Strin
             .tissues
             .iter()
             .zip(&outcome.tissues)
-            .map(|(t, o)| {
-                let mesh = t.grid.to_mesh();
-                let p = &t.props;
-                TissueSurface {
-                    name: p.name.clone(),
-                    label: p.label.into(),
-                    colour: p.colour,
-                    opacity: p.opacity,
-                    stiffness_n_per_mm: p.stiffness_n_per_mm,
-                    damping_n_s_per_mm: p.damping_n_s_per_mm,
-                    removal_rate_mm3_per_n_s: p.removal_rate_mm3_per_n_s,
-                    volume_before_mm3: o.volume_before_mm3,
-                    volume_after_mm3: o.volume_after_mm3,
-                    removed_mm3: o.removed_mm3,
-                    points: mesh.points.iter().flat_map(|v| v.to_array()).collect(),
-                    normals: mesh.normals.iter().flat_map(|v| v.to_array()).collect(),
-                    triangles: mesh.triangles.iter().flatten().copied().collect(),
-                }
+            .map(|(t, o)| surface(t, o.volume_before_mm3, o.volume_after_mm3, o.removed_mm3))
+            .collect())
+    })
+}
+
+/// Every tissue of a .vdb whose level-set grids are named by tissue, as surfaces.
+pub fn read_tissues(path: &str) -> Result<Vec<TissueSurface>, String> {
+    guarded("read tissues", || {
+        let model = dentsim_sim::model::TissueModel::load(std::path::Path::new(path), &TissueTable::default())
+            .map_err(|e| e.to_string())?;
+        Ok(model
+            .tissues
+            .iter()
+            .map(|t| {
+                let volume = t.grid.volume();
+                surface(t, volume, volume, 0.0)
             })
             .collect())
     })
+}
+
+/// A tissue's mesh and properties with the volumes the caller measured.
+fn surface(t: &Tissue, volume_before_mm3: f64, volume_after_mm3: f64, removed_mm3: f64) -> TissueSurface {
+    let mesh = t.grid.to_mesh();
+    let p = &t.props;
+    TissueSurface {
+        name: p.name.clone(),
+        label: p.label.into(),
+        colour: p.colour,
+        opacity: p.opacity,
+        stiffness_n_per_mm: p.stiffness_n_per_mm,
+        damping_n_s_per_mm: p.damping_n_s_per_mm,
+        removal_rate_mm3_per_n_s: p.removal_rate_mm3_per_n_s,
+        volume_before_mm3,
+        volume_after_mm3,
+        removed_mm3,
+        points: mesh.points.iter().flat_map(|v| v.to_array()).collect(),
+        normals: mesh.normals.iter().flat_map(|v| v.to_array()).collect(),
+        triangles: mesh.triangles.iter().flatten().copied().collect(),
+    }
 }
 
 fn version() -> String {
@@ -118,6 +139,12 @@ mod tests {
     fn panics_become_errors() {
         let err = guarded::<()>("probe", || panic!("boom")).unwrap_err();
         assert_eq!(err, "probe: internal error: boom");
+    }
+
+    #[test]
+    fn reading_a_missing_file_names_it() {
+        let err = read_tissues("/nonexistent/tissues.vdb").err().expect("refused");
+        assert!(err.contains("/nonexistent/tissues.vdb"), "{err}");
     }
 
     #[test]
