@@ -10,3 +10,13 @@ pub mod preparation;
 pub mod tissue;
 
 pub use error::{Error, Result};
+pub mod contact;
+pub mod filter;
+pub mod force;
+pub mod haptics;
+pub mod proxy;
+pub mod watchdog;
+pub mod log;
+pub mod session;
+pub mod plot;
+pub mod replay;
