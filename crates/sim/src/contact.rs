@@ -19,6 +19,7 @@ pub struct BurrSamples {
     pub areas: Vec<f64>,
     /// An interior point of the head (tool frame) the rays start from.
     pub centre: DVec3,
+    pub burr: Burr,
 }
 
 impl BurrSamples {
@@ -73,11 +74,50 @@ impl BurrSamples {
             normals.push(n);
             areas.push(rho * rho * solid_angle / dir.dot(n).max(0.2));
         }
-        Ok(BurrSamples { points, normals, areas, centre })
+        Ok(BurrSamples { points, normals, areas, centre, burr: *burr })
     }
 
     pub fn len(&self) -> usize {
         self.points.len()
+    }
+
+    /// The head's farthest point in direction `dir` (tool frame, unit): the best sample, refined
+    /// on the exact burr SDF by tangent steps and projection. The samples alone leave gaps of
+    /// ≈ r·(π/N) deep (0.002 mm for 256 points on a 1 mm ball); the proxy uses this to close them.
+    pub fn support(&self, dir: DVec3) -> DVec3 {
+        let mut best = 0;
+        for (i, p) in self.points.iter().enumerate() {
+            if p.dot(dir) > self.points[best].dot(dir) {
+                best = i;
+            }
+        }
+        let mut p = self.points[best];
+        let mut step = self.areas[best].sqrt();
+        let sdf = |q: DVec3| self.burr.sdf(q);
+        let h = 1e-6;
+        let grad = |q: DVec3| {
+            DVec3::new(
+                sdf(q + DVec3::X * h) - sdf(q - DVec3::X * h),
+                sdf(q + DVec3::Y * h) - sdf(q - DVec3::Y * h),
+                sdf(q + DVec3::Z * h) - sdf(q - DVec3::Z * h),
+            )
+            .try_normalize()
+            .unwrap_or(dir)
+        };
+        for _ in 0..12 {
+            let n = grad(p);
+            let t = dir - n * dir.dot(n);
+            let mut q = p + t * step;
+            for _ in 0..3 {
+                q -= grad(q) * sdf(q);
+            }
+            if q.dot(dir) > p.dot(dir) {
+                p = q;
+            } else {
+                step *= 0.5;
+            }
+        }
+        p
     }
 
     pub fn is_empty(&self) -> bool {
@@ -216,6 +256,18 @@ impl ContactQuery {
             }
         }
         &self.contacts
+    }
+
+    /// The lowest tissue value at one world point (mm), allocation-free.
+    pub fn value_at(&self, model: &TissueModel, p: DVec3) -> f32 {
+        let xyz = [p.x as f32, p.y as f32, p.z as f32];
+        let mut best = f32::MAX;
+        for t in model.tissues.iter().take(self.tissues) {
+            let mut v = [0f32];
+            t.grid.sample_values(&xyz, &mut v);
+            best = best.min(v[0]);
+        }
+        best
     }
 
     /// The contacts of the last query.

@@ -82,11 +82,15 @@ impl Proxy {
                 n += c.normal * c.depth;
             }
             let Some(n) = n.try_normalize() else { break };
-            let push = contacts.iter().map(|c| c.depth * c.normal.dot(n).max(0.0)).fold(0.0, f64::max);
+            let mut push = contacts.iter().map(|c| c.depth * c.normal.dot(n).max(0.0)).fold(0.0, f64::max);
             if iteration == 0 {
                 self.contacts.clear();
                 self.contacts.extend_from_slice(contacts);
             }
+            // Close the gap between samples: the burr's own deepest point along −n.
+            let tool_dir = (pose.matrix3.transpose() * -n).normalize_or_zero();
+            let support = pose.transform_point3(query.samples.support(tool_dir));
+            push = push.max(-f64::from(query.value_at(model, support)));
             self.position += n * push;
             pose.translation = self.position;
             normal = Some(n);
