@@ -20,3 +20,4 @@ pub mod log;
 pub mod session;
 pub mod plot;
 pub mod replay;
+pub mod bench;

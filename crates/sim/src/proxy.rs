@@ -42,7 +42,12 @@ impl Proxy {
     }
 
     /// Moves the proxy toward `device` (rotation from `device`). Allocation-free.
-    pub fn follow(&mut self, query: &mut ContactQuery, model: &TissueModel, device: &DAffine3, max_step: f64) {
+    ///
+    /// `tolerance` (mm): how deep the proxy may rest inside tissue. 0 in touch mode. In cut mode a
+    /// fraction of a voxel, so the proxy sits in the stroke it is cutting: the cut surface of a
+    /// sub-voxel advance is only resolved up to the trilinear error of the ball's SDF (≈ h²/8r),
+    /// and without the tolerance that error would push the proxy back out of its own cut.
+    pub fn follow(&mut self, query: &mut ContactQuery, model: &TissueModel, device: &DAffine3, max_step: f64, tolerance: f64) {
         if !self.initialized {
             self.reset(device.translation);
         }
@@ -58,7 +63,7 @@ impl Proxy {
             self.position += step;
             pose.translation = self.position;
             remaining -= step;
-            if let Some(n) = self.resolve(query, model, &mut pose) {
+            if let Some(n) = self.resolve(query, model, &mut pose, tolerance) {
                 // Blocked: what is left of the motion may slide along the surface, not press in.
                 let into = remaining.dot(n);
                 if into < 0.0 {
@@ -69,11 +74,11 @@ impl Proxy {
     }
 
     /// Pushes the proxy out of tissue; returns the contact normal if it had to.
-    fn resolve(&mut self, query: &mut ContactQuery, model: &TissueModel, pose: &mut DAffine3) -> Option<DVec3> {
+    fn resolve(&mut self, query: &mut ContactQuery, model: &TissueModel, pose: &mut DAffine3, tolerance: f64) -> Option<DVec3> {
         let mut normal = None;
         let recorded_at = self.position;
         for iteration in 0..RESOLVE_ITERATIONS {
-            let contacts = query.query(model, pose, 0.0);
+            let contacts = query.query(model, pose, -tolerance as f32);
             if contacts.is_empty() {
                 break;
             }
@@ -82,7 +87,7 @@ impl Proxy {
                 n += c.normal * c.depth;
             }
             let Some(n) = n.try_normalize() else { break };
-            let mut push = contacts.iter().map(|c| c.depth * c.normal.dot(n).max(0.0)).fold(0.0, f64::max);
+            let mut push = contacts.iter().map(|c| (c.depth - tolerance) * c.normal.dot(n).max(0.0)).fold(0.0, f64::max);
             if iteration == 0 {
                 self.contacts.clear();
                 self.contacts.extend_from_slice(contacts);
@@ -90,7 +95,7 @@ impl Proxy {
             // Close the gap between samples: the burr's own deepest point along −n.
             let tool_dir = (pose.matrix3.transpose() * -n).normalize_or_zero();
             let support = pose.transform_point3(query.samples.support(tool_dir));
-            push = push.max(-f64::from(query.value_at(model, support)));
+            push = push.max(-f64::from(query.value_at(model, support)) - tolerance);
             self.position += n * push;
             pose.translation = self.position;
             normal = Some(n);
