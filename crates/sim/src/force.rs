@@ -55,7 +55,10 @@ pub fn contact_force(
     axis_point: DVec3,
 ) -> ContactForce {
     let mut out = ContactForce::default();
-    let total: f64 = contacts.iter().map(|c| samples.areas[c.sample as usize]).sum();
+    // Weights: area × spring extension, so points the offset does not press (walls parallel to
+    // the motion) do not dilute the ones it does; a flat contact still gives exactly k·d.
+    let weight = |c: &ContactPoint| samples.areas[c.sample as usize] * offset.dot(c.normal).max(0.0);
+    let total: f64 = contacts.iter().map(weight).sum();
     if contacts.is_empty() || !(total > 0.0) {
         return out;
     }
@@ -63,7 +66,7 @@ pub fn contact_force(
     let mut damping = 0.0;
     let mut normal = DVec3::ZERO;
     for c in contacts {
-        let w = samples.areas[c.sample as usize] / total;
+        let w = weight(c) / total;
         let m = mechanics.get(c.tissue as usize).copied().unwrap_or_default();
         let depth = offset.dot(c.normal).max(0.0);
         let f = c.normal * (m.stiffness * depth * w);
@@ -78,7 +81,7 @@ pub fn contact_force(
             *s += w;
         }
     }
-    out.area = total;
+    out.area = contacts.iter().map(|c| samples.areas[c.sample as usize]).sum();
     out.normal = normal.try_normalize().unwrap_or(DVec3::ZERO);
     out.tissue = share
         .iter()
