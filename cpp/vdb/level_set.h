@@ -63,6 +63,11 @@ public:
   void peer_sphere_cut(std::array<double, 3> center, double radius);
   uint64_t peer_full_mesh() const;
 
+  // Haptic sampling without a Reader (sample.cc): values, or value + gradient per point.
+  void sample_values(rust::Slice<const float> xyz, rust::Slice<float> out) const;
+  void sample_value_gradients(rust::Slice<const float> xyz, rust::Slice<float> out) const;
+  uint64_t content_hash() const;
+
   std::unique_ptr<Impl> impl;
 };
 

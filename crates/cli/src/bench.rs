@@ -26,13 +26,23 @@ pub fn run(args: &Args) -> Result<()> {
 
 fn print_table(rows: &[BenchRow]) {
     println!(
-        "{:<18} {:>14} {:>12} {:>14} {:>8}  peer",
-        "operation", "ours p50 µs", "ours p99 µs", "peer p50 µs", "ratio"
+        "{:<18} {:>12} {:>12} {:>12} {:>12} {:>8}  peer (or goal where no peer runs)",
+        "operation", "ours p50 µs", "ours p99 µs", "ours p99.9", "peer p50 µs", "ratio"
     );
+    let cell = |v: Option<f64>, width: usize| match v {
+        Some(v) if v.is_finite() => format!("{v:>width$.3}"),
+        _ => format!("{:>width$}", "-"),
+    };
     for r in rows {
         println!(
-            "{:<18} {:>14.3} {:>12.3} {:>14.3} {:>7.2}×  {}",
-            r.name, r.ours_median_us, r.ours_p99_us, r.peer_median_us, r.ratio, r.peer
+            "{:<18} {} {} {} {} {}  {}",
+            r.name,
+            cell(Some(r.ours_median_us), 12),
+            cell(Some(r.ours_p99_us), 12),
+            cell(r.ours_p999_us, 12),
+            cell(Some(r.peer_median_us), 12),
+            if r.ratio.is_finite() { format!("{:>7.2}×", r.ratio) } else { format!("{:>8}", "-") },
+            r.peer
         );
     }
 }

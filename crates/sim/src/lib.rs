@@ -1,13 +1,24 @@
-//! Tissues, burrs and cutting over OpenVDB level sets. Knows nothing of C++.
+//! Tissues, burrs, cutting, contact and force, the session loop and its log, over OpenVDB level
+//! sets. Knows nothing of C++.
 
 pub mod bench;
 pub mod burr;
+pub mod contact;
 pub mod cut;
 pub mod error;
 pub mod export;
+pub mod filter;
+pub mod force;
+pub mod haptics;
+pub mod log;
 pub mod model;
 pub mod phantom;
+pub mod plot;
 pub mod preparation;
+pub mod proxy;
+pub mod replay;
+pub mod session;
 pub mod tissue;
+pub mod watchdog;
 
 pub use error::{Error, Result};

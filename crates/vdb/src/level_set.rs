@@ -286,6 +286,23 @@ impl LevelSet {
         })
     }
 
+    /// Trilinear signed distances at world points (x, y, z, …) without a [`Reader`]: the
+    /// accessor lives on the C++ stack, so no allocation and no lock (for the haptic tick).
+    pub fn sample_values(&self, xyz: &[f32], out: &mut [f32]) {
+        self.inner.sample_values(xyz, out);
+    }
+
+    /// Like [`LevelSet::sample_values`] with the gradient: `out` holds (value, gx, gy, gz) per point.
+    pub fn sample_value_gradients(&self, xyz: &[f32], out: &mut [f32]) {
+        self.inner.sample_value_gradients(xyz, out);
+    }
+
+    /// A 64-bit FNV-1a hash over every value, coordinate, level and active state of the tree:
+    /// equal grids give equal hashes; used to check that a replay is bit-exact.
+    pub fn content_hash(&self) -> u64 {
+        self.inner.content_hash()
+    }
+
     /// Benchmark peer: one C++ loop of OpenVDB's `BoxSampler` over world points (x, y, z, …).
     pub fn peer_sample_sum(&self, xyz: &[f32]) -> f64 {
         self.inner.peer_sample_sum(xyz)

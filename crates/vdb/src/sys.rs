@@ -97,6 +97,10 @@ pub(crate) mod ffi {
         fn grid_class(self: &GridList, i: usize) -> Result<String>;
         fn take(self: Pin<&mut GridList>, i: usize) -> Result<UniquePtr<LevelSet>>;
         fn write_file(self: &GridList, path: &str) -> Result<()>;
+
+        fn sample_values(self: &LevelSet, xyz: &[f32], out: &mut [f32]);
+        fn sample_value_gradients(self: &LevelSet, xyz: &[f32], out: &mut [f32]);
+        fn content_hash(self: &LevelSet) -> u64;
     }
 }
 

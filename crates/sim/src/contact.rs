@@ -1,0 +1,277 @@
+//! Contact between a burr and the tissue level sets, measured at points on the burr surface.
+//!
+//! [`BurrSamples`] places area-weighted points on the burr's cutting head once per burr (star-shaped
+//! heads, rays from an interior centre). [`ContactQuery`] holds every per-tick buffer, so a query
+//! allocates nothing: one batched trilinear sampling call per tissue for all points, then value +
+//! gradient only for the points inside a tissue. Cost ≈ points × tissues × 25–50 ns.
+use glam::{DAffine3, DVec3};
+
+use crate::burr::Burr;
+use crate::error::{invalid, Result};
+use crate::model::TissueModel;
+
+/// Points on the burr head in the tool frame, with outward normals and the area each stands for.
+#[derive(Clone, Debug)]
+pub struct BurrSamples {
+    pub points: Vec<DVec3>,
+    pub normals: Vec<DVec3>,
+    /// mm² per point; they add up to the head's surface area.
+    pub areas: Vec<f64>,
+    /// An interior point of the head (tool frame) the rays start from.
+    pub centre: DVec3,
+    pub burr: Burr,
+}
+
+impl BurrSamples {
+    /// `count` points on a Fibonacci sphere of directions, projected onto the head along rays from
+    /// its centre; the area element of a ray hit is ρ²·dΩ / cos(ray, normal).
+    pub fn new(burr: &Burr, count: usize) -> Result<Self> {
+        if !(16..=65_536).contains(&count) {
+            return Err(invalid("burr sample count", format!("{count}, expected 16 ..= 65536")));
+        }
+        let reach = burr.bounding_radius();
+        // The deepest point of the head on its axis is interior for every rotationally symmetric head.
+        let mut centre = DVec3::ZERO;
+        let mut best = f64::MAX;
+        for k in 0..=200 {
+            let p = DVec3::new(0.0, 0.0, reach * k as f64 / 200.0);
+            let d = burr.sdf(p);
+            if d < best {
+                (best, centre) = (d, p);
+            }
+        }
+        if best >= 0.0 {
+            return Err(invalid("burr", "found no interior point on its axis"));
+        }
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let solid_angle = 4.0 * std::f64::consts::PI / count as f64;
+        let (mut points, mut normals, mut areas) = (Vec::new(), Vec::new(), Vec::new());
+        let h = 1e-6 * reach.max(1e-3);
+        for i in 0..count {
+            let z = 1.0 - 2.0 * (i as f64 + 0.5) / count as f64;
+            let r = (1.0 - z * z).sqrt();
+            let phi = golden * i as f64;
+            let dir = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+            // Bisection for the first sign change along the ray (star-shaped head).
+            let (mut lo, mut hi) = (0.0, 2.0 * reach + 1.0);
+            for _ in 0..80 {
+                let mid = 0.5 * (lo + hi);
+                if burr.sdf(centre + dir * mid) < 0.0 {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            let rho = 0.5 * (lo + hi);
+            let p = centre + dir * rho;
+            let g = DVec3::new(
+                burr.sdf(p + DVec3::X * h) - burr.sdf(p - DVec3::X * h),
+                burr.sdf(p + DVec3::Y * h) - burr.sdf(p - DVec3::Y * h),
+                burr.sdf(p + DVec3::Z * h) - burr.sdf(p - DVec3::Z * h),
+            );
+            let n = g.try_normalize().unwrap_or(dir);
+            points.push(p);
+            normals.push(n);
+            areas.push(rho * rho * solid_angle / dir.dot(n).max(0.2));
+        }
+        Ok(BurrSamples { points, normals, areas, centre, burr: *burr })
+    }
+
+    pub fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// The head's farthest point in direction `dir` (tool frame, unit): the best sample, refined
+    /// on the exact burr SDF by tangent steps and projection. The samples alone leave gaps of
+    /// ≈ r·(π/N) deep (0.002 mm for 256 points on a 1 mm ball); the proxy uses this to close them.
+    pub fn support(&self, dir: DVec3) -> DVec3 {
+        let mut best = 0;
+        for (i, p) in self.points.iter().enumerate() {
+            if p.dot(dir) > self.points[best].dot(dir) {
+                best = i;
+            }
+        }
+        let mut p = self.points[best];
+        let mut step = self.areas[best].sqrt();
+        let sdf = |q: DVec3| self.burr.sdf(q);
+        let h = 1e-6;
+        let grad = |q: DVec3| {
+            DVec3::new(
+                sdf(q + DVec3::X * h) - sdf(q - DVec3::X * h),
+                sdf(q + DVec3::Y * h) - sdf(q - DVec3::Y * h),
+                sdf(q + DVec3::Z * h) - sdf(q - DVec3::Z * h),
+            )
+            .try_normalize()
+            .unwrap_or(dir)
+        };
+        for _ in 0..12 {
+            let n = grad(p);
+            let t = dir - n * dir.dot(n);
+            let mut q = p + t * step;
+            for _ in 0..3 {
+                q -= grad(q) * sdf(q);
+            }
+            if q.dot(dir) > p.dot(dir) {
+                p = q;
+            } else {
+                step *= 0.5;
+            }
+        }
+        p
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.points.is_empty()
+    }
+
+    pub fn total_area(&self) -> f64 {
+        self.areas.iter().sum()
+    }
+
+    /// Area of the head's shadow seen from `dir` (tool frame, unit): Σ area·max(0, n·dir).
+    pub fn frontal_area(&self, dir: DVec3) -> f64 {
+        self.normals.iter().zip(&self.areas).map(|(n, a)| a * n.dot(dir).max(0.0)).sum()
+    }
+}
+
+/// One burr point inside a tissue.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ContactPoint {
+    /// Index into [`BurrSamples`].
+    pub sample: u32,
+    /// Index of the tissue in the model.
+    pub tissue: u16,
+    /// How far inside (mm, > 0; at most the band's half width).
+    pub depth: f64,
+    /// Outward unit normal of the tissue at the point (world).
+    pub normal: DVec3,
+    /// World position of the point.
+    pub position: DVec3,
+}
+
+/// Buffers for contact queries against one model, sized once; queries reuse them.
+pub struct ContactQuery {
+    pub samples: BurrSamples,
+    xyz: Vec<f32>,
+    /// Values per tissue, tissue-major.
+    values: Vec<f32>,
+    gather_xyz: Vec<f32>,
+    gather_out: Vec<f32>,
+    gather_index: Vec<u32>,
+    owner: Vec<u16>,
+    contacts: Vec<ContactPoint>,
+    tissues: usize,
+}
+
+impl ContactQuery {
+    pub fn new(samples: BurrSamples, tissues: usize) -> Self {
+        let n = samples.len();
+        ContactQuery {
+            xyz: vec![0.0; 3 * n],
+            values: vec![0.0; n * tissues.max(1)],
+            gather_xyz: vec![0.0; 3 * n],
+            gather_out: vec![0.0; 4 * n],
+            gather_index: vec![0; n],
+            owner: vec![0; n],
+            contacts: Vec::with_capacity(n),
+            tissues,
+            samples,
+        }
+    }
+
+    /// The points of the burr at `pose` that lie deeper than `-threshold` in a tissue (value <
+    /// `threshold`; pass 0 for penetration). Each point takes the tissue with the lowest value,
+    /// i.e. the one containing it. Allocation-free when the model has the tissue count given to `new`.
+    pub fn query(&mut self, model: &TissueModel, pose: &DAffine3, threshold: f32) -> &[ContactPoint] {
+        self.contacts.clear();
+        let n = self.samples.len();
+        let tissues = model.tissues.len().min(self.tissues);
+        for (i, p) in self.samples.points.iter().enumerate() {
+            let w = pose.transform_point3(*p);
+            self.xyz[3 * i] = w.x as f32;
+            self.xyz[3 * i + 1] = w.y as f32;
+            self.xyz[3 * i + 2] = w.z as f32;
+        }
+        for (t, tissue) in model.tissues.iter().take(tissues).enumerate() {
+            tissue.grid.sample_values(&self.xyz, &mut self.values[t * n..(t + 1) * n]);
+        }
+        // Owner tissue of every point below the threshold.
+        let mut inside = 0usize;
+        for i in 0..n {
+            let mut best = (f32::MAX, 0u16);
+            for t in 0..tissues {
+                let v = self.values[t * n + i];
+                if v < best.0 {
+                    best = (v, t as u16);
+                }
+            }
+            if best.0 < threshold {
+                self.owner[i] = best.1;
+                self.gather_index[inside] = i as u32;
+                inside += 1;
+            }
+        }
+        if inside == 0 {
+            return &self.contacts;
+        }
+        // Gradients, one batched call per tissue over its own points.
+        for t in 0..tissues {
+            let mut m = 0usize;
+            for k in 0..inside {
+                let i = self.gather_index[k] as usize;
+                if self.owner[i] as usize == t {
+                    self.gather_xyz[3 * m..3 * m + 3].copy_from_slice(&self.xyz[3 * i..3 * i + 3]);
+                    m += 1;
+                }
+            }
+            if m == 0 {
+                continue;
+            }
+            model.tissues[t]
+                .grid
+                .sample_value_gradients(&self.gather_xyz[..3 * m], &mut self.gather_out[..4 * m]);
+            let mut j = 0usize;
+            for k in 0..inside {
+                let i = self.gather_index[k] as usize;
+                if self.owner[i] as usize != t {
+                    continue;
+                }
+                let g = &self.gather_out[4 * j..4 * j + 4];
+                j += 1;
+                // Deep inside the band the gradient vanishes: push along the burr's inward normal.
+                let fallback = -pose.transform_vector3(self.samples.normals[i]);
+                let grad = DVec3::new(f64::from(g[1]), f64::from(g[2]), f64::from(g[3]));
+                let normal = grad.try_normalize().filter(|_| grad.length() > 0.5).unwrap_or(fallback);
+                self.contacts.push(ContactPoint {
+                    sample: i as u32,
+                    tissue: t as u16,
+                    depth: -f64::from(g[0]),
+                    normal,
+                    position: DVec3::new(
+                        f64::from(self.xyz[3 * i]),
+                        f64::from(self.xyz[3 * i + 1]),
+                        f64::from(self.xyz[3 * i + 2]),
+                    ),
+                });
+            }
+        }
+        &self.contacts
+    }
+
+    /// The lowest tissue value at one world point (mm), allocation-free.
+    pub fn value_at(&self, model: &TissueModel, p: DVec3) -> f32 {
+        let xyz = [p.x as f32, p.y as f32, p.z as f32];
+        let mut best = f32::MAX;
+        for t in model.tissues.iter().take(self.tissues) {
+            let mut v = [0f32];
+            t.grid.sample_values(&xyz, &mut v);
+            best = best.min(v[0]);
+        }
+        best
+    }
+
+    /// The contacts of the last query.
+    pub fn contacts(&self) -> &[ContactPoint] {
+        &self.contacts
+    }
+}

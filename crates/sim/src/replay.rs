@@ -1,0 +1,75 @@
+//! Replay: redo a logged session's ticks on the tissues it started from. The tick is
+//! deterministic (session time, not wall clock; same proxy, same strokes), so the final grids
+//! equal the session's bit for bit; check with [`dentsim_vdb::LevelSet::content_hash`].
+use std::io::Write;
+use std::path::Path;
+
+use dentsim_devices::DeviceState;
+use glam::DVec3;
+
+use crate::error::{invalid, Error, Result};
+use crate::haptics::HapticCore;
+use crate::log::{SessionLog, FLAG_MISSED};
+use crate::model::TissueModel;
+
+/// The rendered force at one tick, as logged.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ForceSample {
+    pub t_s: f64,
+    pub force: DVec3,
+    /// Tissue index in contact, −1 for none.
+    pub tissue: i32,
+}
+
+pub struct ReplayOutcome {
+    pub model: TissueModel,
+    /// The force series as the session rendered it (from the log).
+    pub forces: Vec<ForceSample>,
+    /// Largest difference between the logged force and the replay's (N); 0 for a faithful replay.
+    pub max_force_difference_n: f64,
+    pub removed_mm3: Vec<(String, f64)>,
+}
+
+/// Replays `log` on `model`, which must be the session's starting tissues (checked by hash).
+pub fn replay(log: &SessionLog, mut model: TissueModel) -> Result<ReplayOutcome> {
+    let names: Vec<String> = model.tissues.iter().map(|t| t.props.name.clone()).collect();
+    if names != log.header.tissues {
+        return Err(invalid("replay model", format!("tissues {names:?}, the log has {:?}", log.header.tissues)));
+    }
+    for (t, want) in model.tissues.iter().zip(&log.header.start_hashes) {
+        if t.grid.content_hash() != *want {
+            return Err(invalid(
+                "replay model",
+                format!("tissue '{}' differs from the one the session started with (content hash)", t.props.name),
+            ));
+        }
+    }
+    let mut core = HapticCore::new(log.header.params.clone(), &model)?;
+    let mut max_diff = 0.0f64;
+    let mut forces = Vec::with_capacity(log.records.len());
+    for r in &log.records {
+        let state = DeviceState { pose: r.pose, buttons: r.buttons, rpm: r.rpm };
+        let out = core.tick(&mut model, &state, r.flags & FLAG_MISSED != 0)?;
+        max_diff = max_diff.max((out.force - r.force).length());
+        forces.push(ForceSample { t_s: r.t_s, force: r.force, tissue: r.tissue });
+    }
+    let removed_mm3 = names.into_iter().zip(core.removed_mm3.iter().copied()).collect();
+    Ok(ReplayOutcome { model, forces, max_force_difference_n: max_diff, removed_mm3 })
+}
+
+/// `t_s,fx,fy,fz,f,tissue` with the tissue by name (empty for none); written via a temporary name.
+pub fn write_force_csv(path: &Path, forces: &[ForceSample], tissues: &[String]) -> Result<()> {
+    let err = |e: std::io::Error| Error::File { path: path.to_owned(), message: e.to_string() };
+    let tmp = path.with_extension("csv.tmp");
+    {
+        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp).map_err(err)?);
+        writeln!(w, "t_s,fx_n,fy_n,fz_n,f_n,tissue").map_err(err)?;
+        for s in forces {
+            let name = usize::try_from(s.tissue).ok().and_then(|i| tissues.get(i)).map_or("", String::as_str);
+            let f = s.force;
+            writeln!(w, "{},{},{},{},{},{}", s.t_s, f.x, f.y, f.z, f.length(), name).map_err(err)?;
+        }
+        w.flush().map_err(err)?;
+    }
+    std::fs::rename(&tmp, path).map_err(err)
+}

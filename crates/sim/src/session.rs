@@ -1,0 +1,483 @@
+//! A haptic session: three threads joined by wait-free `rtrb` queues.
+//!
+//! - haptic (1 kHz, raised priority where permitted): owns the [`TissueModel`] while the session
+//!   runs; each tick polls the device, runs [`HapticCore::tick`] (proxy, force, cut), sends the
+//!   force and pushes a [`TickRecord`] to the logger and each stroke it cut to the mesher. No lock,
+//!   no I/O; touch-mode ticks allocate nothing (tests/no_alloc.rs), cut ticks allocate inside
+//!   `Cutter::cut`'s report and OpenVDB's leaf creation (see the notes on issue 5).
+//! - mesher (≤ `mesher_hz`): keeps mirror grids (a deep copy taken at the start) and applies the
+//!   same strokes to them, so it never reads the grids the haptic thread writes; then re-meshes
+//!   the tissues a stroke touched and publishes them. Strokes are deterministic, so the mirror
+//!   equals the haptic model up to the strokes still queued.
+//! - logger: drains records to the binary log, flushing at least every 10 ms, and keeps the
+//!   latest record for displays (the plugin's live source).
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use dentsim_devices::{Device, DeviceState};
+use dentsim_vdb::TriMesh;
+use glam::{DAffine3, DVec3};
+
+use crate::burr::Burr;
+use crate::cut::Cutter;
+use crate::error::{invalid, Error, Result};
+use crate::haptics::{HapticCore, HapticParams};
+use crate::log::{write_header, write_record, LogHeader, TickRecord, FLAG_CUT, FLAG_DEVICE_FAULT, FLAG_MISSED};
+use crate::model::{Tissue, TissueModel};
+
+/// How a session runs.
+#[derive(Clone, Debug)]
+pub struct SessionOptions {
+    pub params: HapticParams,
+    /// Tick on the wall clock (a live device). `false` runs ticks back to back with the same
+    /// session time steps (headless, tests): identical physics, no waiting.
+    pub realtime: bool,
+    /// Stop after this much session time even if the device has not finished (s).
+    pub max_duration_s: f64,
+    /// Where the binary log goes (written by the logger thread); `None` for no log.
+    pub log_path: Option<PathBuf>,
+    /// Mesh rate; `None` runs no mesher.
+    pub mesher_hz: Option<f64>,
+    /// Try SCHED_FIFO for the haptic thread (ignored where not permitted).
+    pub raise_priority: bool,
+}
+
+impl Default for SessionOptions {
+    fn default() -> Self {
+        SessionOptions {
+            params: HapticParams::default(),
+            realtime: true,
+            max_duration_s: 600.0,
+            log_path: None,
+            mesher_hz: Some(30.0),
+            raise_priority: true,
+        }
+    }
+}
+
+/// What a finished session hands back.
+pub struct SessionOutcome {
+    pub model: TissueModel,
+    pub ticks: u64,
+    pub missed_deadlines: u64,
+    pub watchdog_trips: u32,
+    pub device_faults: u64,
+    /// Records or strokes the queues could not take (should be 0).
+    pub dropped_records: u64,
+    pub dropped_strokes: u64,
+    /// Volume removed per tissue (mm³).
+    pub removed_mm3: Vec<(String, f64)>,
+    /// Ticks spent in contact with each tissue.
+    pub contact_ticks: Vec<(String, u64)>,
+    pub max_force_n: f64,
+    /// Intervals between tick starts (µs), from the log records.
+    pub periods_us: Vec<f64>,
+    /// Stroke cut → mesh of it published (ms), one per published mesh batch.
+    pub cut_to_visible_ms: Vec<f64>,
+    pub meshes_published: u64,
+    pub log_path: Option<PathBuf>,
+    /// The contact sequence collapsed to its changes: (tissue index or −1, first tick).
+    pub contact_changes: Vec<(i32, u64)>,
+}
+
+/// A stroke for the mesher's mirror.
+#[derive(Clone, Copy)]
+struct StrokeMsg {
+    from: DAffine3,
+    to: DAffine3,
+    at: Instant,
+}
+
+struct Shared {
+    stop: AtomicBool,
+    haptic_done: AtomicBool,
+    latest: Mutex<Option<TickRecord>>,
+    meshes: Mutex<Vec<Option<Arc<TriMesh>>>>,
+}
+
+struct HapticStats {
+    ticks: u64,
+    missed: u64,
+    faults: u64,
+    dropped_records: u64,
+    dropped_strokes: u64,
+    trips: u32,
+    removed: Vec<f64>,
+}
+
+struct LoggerStats {
+    periods_us: Vec<f64>,
+    contact_ticks: Vec<u64>,
+    max_force: f64,
+    changes: Vec<(i32, u64)>,
+}
+
+struct MesherStats {
+    latencies_ms: Vec<f64>,
+    published: u64,
+}
+
+/// A running session. Drop without `stop` stops it too (and loses the model).
+pub struct Session {
+    shared: Arc<Shared>,
+    haptic: Option<JoinHandle<(TissueModel, Result<HapticStats>)>>,
+    logger: Option<JoinHandle<Result<LoggerStats>>>,
+    mesher: Option<JoinHandle<MesherStats>>,
+    names: Vec<String>,
+    log_path: Option<PathBuf>,
+}
+
+const QUEUE_RECORDS: usize = 1 << 14;
+const QUEUE_STROKES: usize = 1 << 14;
+
+impl Session {
+    /// Starts the threads; the model moves into the haptic thread until [`Session::stop`].
+    pub fn start<D: Device + 'static>(model: TissueModel, mut device: D, options: SessionOptions) -> Result<Session> {
+        if !(options.max_duration_s.is_finite() && options.max_duration_s > 0.0) {
+            return Err(invalid("session max_duration_s", format!("{}, expected > 0", options.max_duration_s)));
+        }
+        if let Some(hz) = options.mesher_hz {
+            if !(hz.is_finite() && hz > 0.0 && hz <= 1000.0) {
+                return Err(invalid("mesher_hz", format!("{hz}, expected 0 < hz <= 1000")));
+            }
+        }
+        let core = HapticCore::new(options.params.clone(), &model)?;
+        let names: Vec<String> = model.tissues.iter().map(|t| t.props.name.clone()).collect();
+        let shared = Arc::new(Shared {
+            stop: AtomicBool::new(false),
+            haptic_done: AtomicBool::new(false),
+            latest: Mutex::new(None),
+            meshes: Mutex::new(vec![None; names.len()]),
+        });
+        let (mut rec_tx, rec_rx) = rtrb::RingBuffer::<TickRecord>::new(QUEUE_RECORDS);
+        let (mut stroke_tx, stroke_rx) = rtrb::RingBuffer::<StrokeMsg>::new(QUEUE_STROKES);
+
+        // Logger: open the file before the clock starts so a bad path fails here.
+        let writer = match &options.log_path {
+            Some(path) => {
+                let file = File::create(path).map_err(|e| Error::File { path: path.clone(), message: e.to_string() })?;
+                let mut w = BufWriter::with_capacity(1 << 16, file);
+                let header = LogHeader {
+                    params: options.params.clone(),
+                    device: device.name().to_string(),
+                    tissues: names.clone(),
+                    start_hashes: model.tissues.iter().map(|t| t.grid.content_hash()).collect(),
+                    source: model.source.clone(),
+                };
+                write_header(&mut w, &header).map_err(|e| Error::File { path: path.clone(), message: e.to_string() })?;
+                Some((w, path.clone()))
+            }
+            None => None,
+        };
+        let mirror = options.mesher_hz.map(|hz| (mirror_of(&model), hz));
+        let burr = *core.burr();
+
+        let s = shared.clone();
+        let n_tissues = names.len();
+        let logger = std::thread::Builder::new()
+            .name("dentsim-logger".into())
+            .spawn(move || logger_loop(rec_rx, writer, &s, n_tissues))
+            .map_err(|e| invalid("logger thread", e.to_string()))?;
+        let mesher = match mirror {
+            Some((mirror, hz)) => {
+                let s = shared.clone();
+                Some(
+                    std::thread::Builder::new()
+                        .name("dentsim-mesher".into())
+                        .spawn(move || mesher_loop(stroke_rx, mirror, burr, hz, &s))
+                        .map_err(|e| invalid("mesher thread", e.to_string()))?,
+                )
+            }
+            None => None,
+        };
+        let s = shared.clone();
+        let log_path = options.log_path.clone();
+        let haptic = std::thread::Builder::new()
+            .name("dentsim-haptic".into())
+            .spawn(move || {
+                if options.raise_priority {
+                    raise_priority();
+                }
+                let mut model = model;
+                let mut core = core;
+                let r = haptic_loop(&mut core, &mut model, &mut device, &options, &mut rec_tx, &mut stroke_tx, &s);
+                device.send_force(DVec3::ZERO, DVec3::ZERO);
+                s.haptic_done.store(true, Ordering::Release);
+                (model, r)
+            })
+            .map_err(|e| invalid("haptic thread", e.to_string()))?;
+        Ok(Session { shared, haptic: Some(haptic), logger: Some(logger), mesher, names, log_path })
+    }
+
+    /// The latest tick the logger has seen (for displays; lags the haptic thread by ≤ 2 ms).
+    pub fn latest(&self) -> Option<TickRecord> {
+        *self.shared.latest.lock().unwrap_or_else(|p| p.into_inner())
+    }
+
+    /// The latest mesh of each tissue the mesher published (model order).
+    pub fn latest_meshes(&self) -> Vec<Option<Arc<TriMesh>>> {
+        self.shared.meshes.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+
+    pub fn tissue_names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// True while the haptic thread runs (a scripted device ends it by finishing).
+    pub fn is_running(&self) -> bool {
+        !self.shared.haptic_done.load(Ordering::Acquire)
+    }
+
+    /// Stops the session, joins every thread and returns the model.
+    pub fn stop(mut self) -> Result<SessionOutcome> {
+        self.shared.stop.store(true, Ordering::Release);
+        let joined = self.haptic.take().expect("haptic thread").join();
+        let (model, haptic) = joined.map_err(|_| invalid("haptic thread", "panicked"))?;
+        let logger = self.logger.take().expect("logger thread").join().map_err(|_| invalid("logger thread", "panicked"))?;
+        let mesher = match self.mesher.take() {
+            Some(m) => Some(m.join().map_err(|_| invalid("mesher thread", "panicked"))?),
+            None => None,
+        };
+        let haptic = haptic?;
+        let logger = logger?;
+        let names = self.names.clone();
+        Ok(SessionOutcome {
+            ticks: haptic.ticks,
+            missed_deadlines: haptic.missed,
+            watchdog_trips: haptic.trips,
+            device_faults: haptic.faults,
+            dropped_records: haptic.dropped_records,
+            dropped_strokes: haptic.dropped_strokes,
+            removed_mm3: names.iter().cloned().zip(haptic.removed).collect(),
+            contact_ticks: names.iter().cloned().zip(logger.contact_ticks).collect(),
+            max_force_n: logger.max_force,
+            periods_us: logger.periods_us,
+            cut_to_visible_ms: mesher.as_ref().map_or_else(Vec::new, |m| m.latencies_ms.clone()),
+            meshes_published: mesher.map_or(0, |m| m.published),
+            log_path: self.log_path.clone(),
+            contact_changes: logger.changes,
+            model,
+        })
+    }
+}
+
+impl Drop for Session {
+    fn drop(&mut self) {
+        self.shared.stop.store(true, Ordering::Release);
+        if let Some(h) = self.haptic.take() {
+            let _ = h.join();
+        }
+        if let Some(h) = self.logger.take() {
+            let _ = h.join();
+        }
+        if let Some(h) = self.mesher.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+/// Runs a headless session until the device finishes (or `max_duration_s`), then stops it.
+pub fn run_session<D: Device + 'static>(model: TissueModel, device: D, options: SessionOptions) -> Result<SessionOutcome> {
+    let session = Session::start(model, device, options)?;
+    while session.is_running() {
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    session.stop()
+}
+
+fn mirror_of(model: &TissueModel) -> TissueModel {
+    let mut m = TissueModel::new(model.source.clone(), model.fdi_tooth);
+    m.tissues = model.tissues.iter().map(|t| Tissue { props: t.props.clone(), grid: t.grid.clone() }).collect();
+    m
+}
+
+/// SCHED_FIFO at a modest priority; failure (no permission) is fine.
+fn raise_priority() {
+    #[cfg(target_os = "linux")]
+    // SAFETY: plain syscall on the calling thread with a valid, initialised parameter struct.
+    unsafe {
+        let param = libc::sched_param { sched_priority: 20 };
+        let _ = libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param);
+    }
+}
+
+/// Sleeps until 300 µs before `deadline`, then spins: the OS sleep alone is ~50–100 µs late.
+fn wait_until(deadline: Instant) {
+    const SPIN: Duration = Duration::from_micros(300);
+    let now = Instant::now();
+    if deadline > now + SPIN {
+        std::thread::sleep(deadline - now - SPIN);
+    }
+    while Instant::now() < deadline {
+        std::hint::spin_loop();
+    }
+}
+
+fn haptic_loop<D: Device>(
+    core: &mut HapticCore,
+    model: &mut TissueModel,
+    device: &mut D,
+    options: &SessionOptions,
+    records: &mut rtrb::Producer<TickRecord>,
+    strokes: &mut rtrb::Producer<StrokeMsg>,
+    shared: &Shared,
+) -> Result<HapticStats> {
+    let period = options.params.period_s;
+    let mut stats = HapticStats { ticks: 0, missed: 0, faults: 0, dropped_records: 0, dropped_strokes: 0, trips: 0, removed: Vec::new() };
+    let mut last: Option<DeviceState> = None;
+    let start = Instant::now();
+    let mut tick: u64 = 0;
+    while !shared.stop.load(Ordering::Acquire) {
+        let t = tick as f64 * period;
+        let deadline = start + Duration::from_secs_f64(t);
+        if options.realtime {
+            wait_until(deadline);
+        }
+        let wall = start.elapsed().as_secs_f64();
+        let missed = options.realtime && wall - t > 0.5 * period;
+        let mut flags = if missed { FLAG_MISSED } else { 0 };
+        let state = match device.poll(t) {
+            Ok(s) => s,
+            Err(_) => {
+                stats.faults += 1;
+                flags |= FLAG_DEVICE_FAULT;
+                match last {
+                    Some(s) => s,
+                    None => {
+                        tick += 1;
+                        continue;
+                    }
+                }
+            }
+        };
+        last = Some(state);
+        let out = core.tick(model, &state, missed);
+        let out = match out {
+            Ok(o) => o,
+            Err(e) => {
+                stats.removed = core.removed_mm3.clone();
+                return Err(e);
+            }
+        };
+        device.send_force(out.force, out.torque);
+        if let Some((from, to)) = out.cut {
+            flags |= FLAG_CUT;
+            if strokes.push(StrokeMsg { from, to, at: Instant::now() }).is_err() {
+                stats.dropped_strokes += 1;
+            }
+        }
+        stats.missed += u64::from(missed);
+        let record = TickRecord {
+            tick,
+            t_s: t,
+            wall_s: wall,
+            pose: state.pose,
+            buttons: state.buttons,
+            rpm: state.rpm,
+            force: out.force,
+            torque: out.torque,
+            proxy: out.proxy,
+            tissue: out.raw.tissue.map_or(-1, i32::from),
+            flags,
+            removed_mm3: out.removed_mm3,
+        };
+        if records.push(record).is_err() {
+            stats.dropped_records += 1;
+        }
+        tick += 1;
+        if device.finished(t) || t >= options.max_duration_s {
+            break;
+        }
+    }
+    stats.ticks = tick;
+    stats.trips = core.watchdog_trips();
+    stats.removed = core.removed_mm3.clone();
+    Ok(stats)
+}
+
+fn logger_loop(
+    mut rx: rtrb::Consumer<TickRecord>,
+    mut writer: Option<(BufWriter<File>, PathBuf)>,
+    shared: &Shared,
+    tissues: usize,
+) -> Result<LoggerStats> {
+    let mut stats = LoggerStats { periods_us: Vec::new(), contact_ticks: vec![0; tissues], max_force: 0.0, changes: Vec::new() };
+    let mut last_wall: Option<f64> = None;
+    let mut last_tissue = i32::MIN;
+    let io = |path: &PathBuf, e: std::io::Error| Error::File { path: path.clone(), message: e.to_string() };
+    loop {
+        let done = shared.haptic_done.load(Ordering::Acquire);
+        let mut latest = None;
+        while let Ok(r) = rx.pop() {
+            if let Some((w, path)) = writer.as_mut() {
+                write_record(w, &r).map_err(|e| io(path, e))?;
+            }
+            if let Some(prev) = last_wall {
+                stats.periods_us.push((r.wall_s - prev) * 1e6);
+            }
+            last_wall = Some(r.wall_s);
+            if let Some(c) = usize::try_from(r.tissue).ok().and_then(|t| stats.contact_ticks.get_mut(t)) {
+                *c += 1;
+            }
+            if r.tissue != last_tissue {
+                stats.changes.push((r.tissue, r.tick));
+                last_tissue = r.tissue;
+            }
+            stats.max_force = stats.max_force.max(r.force.length());
+            latest = Some(r);
+        }
+        if let Some((w, path)) = writer.as_mut() {
+            w.flush().map_err(|e| io(path, e))?;
+        }
+        if latest.is_some() {
+            *shared.latest.lock().unwrap_or_else(|p| p.into_inner()) = latest;
+        }
+        if done && rx.is_empty() {
+            return Ok(stats);
+        }
+        // Well inside the 10 ms flush promise.
+        std::thread::sleep(Duration::from_millis(2));
+    }
+}
+
+fn mesher_loop(mut rx: rtrb::Consumer<StrokeMsg>, mut mirror: TissueModel, burr: Burr, hz: f64, shared: &Shared) -> MesherStats {
+    let mut stats = MesherStats { latencies_ms: Vec::new(), published: 0 };
+    let mut cutter = Cutter::default();
+    let mut dirty = vec![false; mirror.tissues.len()];
+    let mut oldest: Option<Instant> = None;
+    let min_interval = Duration::from_secs_f64(1.0 / hz);
+    let mut last_mesh = Instant::now() - min_interval;
+    loop {
+        let done = shared.haptic_done.load(Ordering::Acquire);
+        while let Ok(s) = rx.pop() {
+            if let Ok(report) = cutter.cut(&mut mirror, &burr, s.from, s.to) {
+                for (d, (_, v)) in dirty.iter_mut().zip(&report.removed_mm3) {
+                    *d |= *v != 0.0;
+                }
+                oldest.get_or_insert(s.at);
+            }
+        }
+        if dirty.iter().any(|d| *d) && last_mesh.elapsed() >= min_interval {
+            for (i, d) in dirty.iter_mut().enumerate() {
+                if std::mem::take(d) {
+                    let mesh = Arc::new(mirror.tissues[i].grid.to_mesh());
+                    shared.meshes.lock().unwrap_or_else(|p| p.into_inner())[i] = Some(mesh);
+                }
+            }
+            if let Some(at) = oldest.take() {
+                stats.latencies_ms.push(at.elapsed().as_secs_f64() * 1e3);
+            }
+            stats.published += 1;
+            last_mesh = Instant::now();
+        }
+        if done && rx.is_empty() && !dirty.iter().any(|d| *d) {
+            return stats;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
+}

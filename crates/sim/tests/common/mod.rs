@@ -1,0 +1,53 @@
+//! Helpers shared by the haptics tests: one-tissue models from analytic SDFs and a device driver.
+#![allow(dead_code)]
+use dentsim_devices::DeviceState;
+use dentsim_sim::haptics::{HapticCore, TickOutput};
+use dentsim_sim::model::TissueModel;
+use dentsim_sim::tissue::TissueTable;
+use dentsim_vdb::LevelSet;
+use glam::{DAffine3, DVec3};
+
+pub const VOXEL: f64 = 0.05;
+
+/// Exact signed distance of an axis-aligned box.
+pub fn box_sdf(p: DVec3, lo: DVec3, hi: DVec3) -> f64 {
+    let c = (lo + hi) / 2.0;
+    let h = (hi - lo) / 2.0;
+    let q = (p - c).abs() - h;
+    q.max(DVec3::ZERO).length() + q.max_element().min(0.0)
+}
+
+/// A model with one tissue (props from the default table) filling `lo..hi`.
+pub fn box_model(tissue: &str, lo: DVec3, hi: DVec3) -> TissueModel {
+    let table = TissueTable::default();
+    let grid = LevelSet::from_sdf(VOXEL, 3.0, lo, hi, |p| box_sdf(p, lo, hi)).unwrap();
+    let mut m = TissueModel::new("test box", None);
+    m.push(table.get(tissue).unwrap().clone(), grid).unwrap();
+    m
+}
+
+pub fn sphere_model(tissue: &str, radius: f64) -> TissueModel {
+    let table = TissueTable::default();
+    let r = DVec3::splat(radius);
+    let grid = LevelSet::from_sdf(VOXEL, 3.0, -r, r, |p| p.length() - radius).unwrap();
+    let mut m = TissueModel::new("test sphere", None);
+    m.push(table.get(tissue).unwrap().clone(), grid).unwrap();
+    m
+}
+
+pub fn touch(tip: DVec3) -> DeviceState {
+    DeviceState { pose: DAffine3::from_translation(tip), buttons: 0, rpm: 0.0 }
+}
+
+/// Moves the device tip along a straight line in `ticks` ticks, then holds it `hold` ticks.
+pub fn drive(core: &mut HapticCore, model: &mut TissueModel, from: DVec3, to: DVec3, ticks: usize, hold: usize) -> Vec<TickOutput> {
+    let mut out = Vec::new();
+    for k in 0..=ticks {
+        let p = from.lerp(to, k as f64 / ticks.max(1) as f64);
+        out.push(core.tick(model, &touch(p), false).unwrap());
+    }
+    for _ in 0..hold {
+        out.push(core.tick(model, &touch(to), false).unwrap());
+    }
+    out
+}
