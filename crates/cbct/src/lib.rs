@@ -17,6 +17,7 @@ pub use dicom::{read_dicom, write_dicom_series};
 pub use error::{Error, Result};
 pub use metaimage::{read_metaimage, write_metaimage, write_metaimage_compressed};
 pub use nifti::{read_nifti, write_nifti};
+pub use phantom::{Phantom, PhantomSpec};
 
 
 
