@@ -18,6 +18,9 @@ pub use error::{Error, Result};
 pub use metaimage::{read_metaimage, write_metaimage, write_metaimage_compressed};
 pub use nifti::{read_nifti, write_nifti};
 pub use phantom::{Phantom, PhantomSpec};
+pub use calibrate::{calibrate, Calibration};
+pub use roi::{crop, crop_between_planes, crop_labels, tooth_box, IndexBox, Plane};
+pub use segment::{dice, segment, tissue_field, SegmentOptions, ToothSelect};
 
 
 

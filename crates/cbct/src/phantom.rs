@@ -4,7 +4,7 @@
 //!
 //! Each tissue's SDF encloses exactly its own material (enamel is a shell whose inner surface is
 //! the dentin–enamel junction, dentin a shell around the pulp), so `sdf(l, p) < 0` holds for exactly
-//! one label at every point. Simplifications: round cusps, one canal per root, canals closed 0.8 mm
+//! one label at every point. Simplifications: round cusps, one canal per root, canals closed 2 mm
 //! short of the apex, no lamina dura, no cementum, no tongue or cheeks.
 
 use crate::volume::{LabelVolume, SourceInfo, Volume, IDENTITY};
@@ -209,7 +209,7 @@ impl Tooth {
     }
 
     fn outer(&self, p: DVec3) -> f64 {
-        let body = sd_round_box(p - DVec3::new(0.0, 0.0, 0.4 + self.half.z), self.half, 2.0f64.min(self.half.z));
+        let body = sd_round_box(p - DVec3::new(0.0, 0.0, 0.4 + self.half.z), self.half, 2.6f64.min(self.half.z));
         let mut cusps = f64::INFINITY;
         for &(c, r) in &self.cusps {
             cusps = smin(cusps, (p - c).length() - r, 1.2);
@@ -235,8 +235,8 @@ impl Tooth {
         }
         for r in &self.roots {
             let top = DVec3::new(r.top.x, r.top.y, 2.4);
-            let apex = r.apex + (r.top - r.apex).normalize() * 0.8;
-            d = smin(d, sd_round_cone(p, top, apex, 0.6, 0.35), 0.8);
+            let apex = r.apex + (r.top - r.apex).normalize() * 2.0;
+            d = smin(d, sd_round_cone(p, top, apex, 0.55, 0.3), 0.8);
         }
         // Nest inside dentin: keep a wall of at least 0.3 (in dentin_core units, ~0.6 mm).
         d.max(dentin_core + 0.3)
@@ -295,9 +295,9 @@ impl Phantom {
         let axes = [distal, lingual, occlusal];
         let anchor = DVec3::new(24.0, 18.0, -35.0);
         let teeth = vec![
-            Tooth::premolar(35, DVec3::new(-9.3, 0.2, 0.3)),
+            Tooth::premolar(35, DVec3::new(-9.5, 0.2, 0.3)),
             Tooth::molar(36, DVec3::ZERO, 1.0, spec.caries, false),
-            Tooth::molar(37, DVec3::new(10.8, 0.0, -0.2), 0.95, false, spec.restoration),
+            Tooth::molar(37, DVec3::new(11.2, 0.0, -0.2), 0.95, false, spec.restoration),
         ];
         let s = spec.spacing_mm;
         let centre = anchor + occlusal * -3.0;
