@@ -137,6 +137,7 @@ pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     if files.is_empty() {
         return Err(Error::EmptyFolder { path: path.to_path_buf() });
     }
+    let single = !path.is_dir();
     let mut notes = Vec::new();
     let mut frames: Vec<Frame> = Vec::new();
     let mut facts = Facts::default();
@@ -145,7 +146,7 @@ pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         let obj = match OpenFileOptions::new().read_until(tags::PIXEL_DATA).open_file(f) {
             Ok(o) => o,
             Err(e) => {
-                if files.len() == 1 {
+                if single {
                     return Err(Error::Dicom { path: f.clone(), message: format!("not a readable DICOM file: {e}") });
                 }
                 notes.push(format!("skipped {}: not DICOM ({e})", f.display()));
@@ -169,7 +170,7 @@ pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         }
     }
     if frames.is_empty() {
-        if !non_image.is_empty() && files.len() == 1 {
+        if !non_image.is_empty() && (single || non_image.len() == 1) {
             return Err(Error::NonImage { path: non_image[0].clone() });
         }
         if !non_image.is_empty() {
