@@ -334,6 +334,9 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             }
             let mu_in = if ins.is_empty() { Label::Dentin } else { snap(median(&mut ins) as f64, cal, &hard) };
             let mu_out = if outs.is_empty() { Label::SoftTissue } else { snap(median(&mut outs) as f64, cal, &outside_classes) };
+            // Roots sit in bone behind a periodontal ligament (soft tissue, ~0.2 mm): the
+            // surface there is the dentin/ligament edge, so the ligament is the outside partner.
+            let mu_out = if matches!(mu_out, Label::BoneCancellous | Label::BoneCortical) { Label::SoftTissue } else { mu_out };
             let inside = vol.values[m] as f64 > cal.mid(mu_in, mu_out);
             (m, inside.then_some(mu_in))
         })
