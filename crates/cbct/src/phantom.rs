@@ -252,7 +252,8 @@ impl Tooth {
         let core = (t + th) / (1.0 + slope);
         let pulp = self.pulp(p, core);
         let caries = match self.caries {
-            Some((c, r)) => ((p - c).length() - r).max(t + 0.25).max(-pulp),
+            // stays 0.6 mm clear of the pulp: a lesion that has not reached it yet
+            Some((c, r)) => ((p - c).length() - r).max(t + 0.25).max(0.6 - pulp),
             None => f64::INFINITY,
         };
         let metal = match self.metal {
