@@ -44,5 +44,3 @@ fn main() {
         println!("{:8} true {:8.2} seg {:8.2} err {:+6.2}% dice {:.4}", l.name(), tv, sv, if tv > 0.0 { 100.0 * (sv - tv) / tv } else { 0.0 }, dice(&seg, &truth, l));
     }
 }
-#[allow(dead_code)]
-fn unused() {}
