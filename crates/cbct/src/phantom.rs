@@ -1,0 +1,718 @@
+//! The built-in phantom: a mandibular left first molar (FDI 36) in its socket with neighbours 35
+//! and 37, defined continuously by signed distance functions (mm, negative inside, Lipschitz ≤ 1)
+//! in the patient LPS frame, and voxelised into a CBCT-like scan with ground-truth labels.
+//!
+//! Each tissue's SDF encloses exactly its own material (enamel is a shell whose inner surface is
+//! the dentin–enamel junction, dentin a shell around the pulp), so `sdf(l, p) < 0` holds for exactly
+//! one label at every point. Simplifications: round cusps, one canal per root, canals closed 2 mm
+//! short of the apex, no lamina dura, no cementum, no tongue or cheeks.
+
+use crate::volume::{LabelVolume, SourceInfo, Volume, IDENTITY};
+use crate::Label;
+use glam::DVec3;
+use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
+
+/// Parameters of a phantom scan. Grey = `scale * HU + offset` (so the scan is NOT in HU),
+/// with `noise_sigma` in HU before scaling.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PhantomSpec {
+    pub seed: u64,
+    pub spacing_mm: f64,
+    pub dims: [usize; 3],
+    pub scale: f32,
+    pub offset: f32,
+    /// Gaussian point-spread (partial volume beyond the voxel's own averaging), mm.
+    pub blur_sigma_mm: f64,
+    /// Gaussian noise, HU.
+    pub noise_sigma: f32,
+    /// Occlusal (hidden) caries lesion under the central fossa of 36.
+    pub caries: bool,
+    /// Amalgam inlay in 37 with streak artefacts.
+    pub restoration: bool,
+}
+
+impl Default for PhantomSpec {
+    fn default() -> Self {
+        PhantomSpec {
+            seed: 36,
+            spacing_mm: 0.2,
+            dims: [110, 135, 130],
+            scale: 0.9,
+            offset: 1100.0,
+            blur_sigma_mm: 0.15,
+            noise_sigma: 40.0,
+            caries: false,
+            restoration: false,
+        }
+    }
+}
+
+impl PhantomSpec {
+    /// The 400×400×300 scan at 0.2 mm (80×80×60 mm) used by the benchmark.
+    pub fn benchmark() -> Self {
+        PhantomSpec { dims: [400, 400, 300], ..Default::default() }
+    }
+}
+
+// ---- SDF primitives (exact distance unless noted) ----
+
+fn sd_round_box(p: DVec3, half: DVec3, r: f64) -> f64 {
+    let q = p.abs() - half + DVec3::splat(r);
+    q.max(DVec3::ZERO).length() + q.max_element().min(0.0) - r
+}
+
+fn sd_capsule(p: DVec3, a: DVec3, b: DVec3, r: f64) -> f64 {
+    let pa = p - a;
+    let ba = b - a;
+    let h = (pa.dot(ba) / ba.length_squared()).clamp(0.0, 1.0);
+    (pa - ba * h).length() - r
+}
+
+/// Cone with spherical caps of radius r1 at a and r2 at b.
+fn sd_round_cone(p: DVec3, a: DVec3, b: DVec3, r1: f64, r2: f64) -> f64 {
+    let ba = b - a;
+    let l2 = ba.length_squared();
+    let rr = r1 - r2;
+    let a2 = l2 - rr * rr;
+    let il2 = 1.0 / l2;
+    let pa = p - a;
+    let y = pa.dot(ba);
+    let z = y - l2;
+    let x2 = (pa * l2 - ba * y).length_squared();
+    let y2 = y * y * l2;
+    let z2 = z * z * l2;
+    let k = rr.signum() * rr * rr * x2;
+    if z.signum() * a2 * z2 > k {
+        return (x2 + z2).sqrt() * il2 - r2;
+    }
+    if y.signum() * a2 * y2 < k {
+        return (x2 + y2).sqrt() * il2 - r1;
+    }
+    ((x2 * a2 * il2).sqrt() + y * rr) * il2 - r1
+}
+
+/// Polynomial smooth minimum; its gradient is a convex combination, so Lipschitz stays ≤ 1.
+fn smin(a: f64, b: f64, k: f64) -> f64 {
+    let h = (k - (a - b).abs()).max(0.0) / k;
+    a.min(b) - h * h * k * 0.25
+}
+
+fn smax(a: f64, b: f64, k: f64) -> f64 {
+    -smin(-a, -b, k)
+}
+
+#[derive(Debug, Clone)]
+struct Root {
+    top: DVec3,
+    apex: DVec3,
+    r_top: f64,
+    r_apex: f64,
+    /// half-width of the buccolingual flattening at the top; tapers to 20 % at the apex
+    w_top: f64,
+}
+
+impl Root {
+    /// Round cone elongated buccolingually (local y) by a width that tapers along the root;
+    /// divided by the taper's Lipschitz factor to stay a bound.
+    fn sdf(&self, p: DVec3, grow: f64, shrink_r: f64) -> f64 {
+        let t = ((p.z - self.apex.z) / (self.top.z - self.apex.z)).clamp(0.0, 1.0);
+        let w = self.w_top * (0.2 + 0.8 * t);
+        let slope = 0.8 * self.w_top / (self.top.z - self.apex.z).abs();
+        let q = DVec3::new(p.x, p.y - p.y.clamp(-w, w), p.z);
+        let d = sd_round_cone(q, self.top, self.apex, (self.r_top - shrink_r).max(0.05), (self.r_apex - shrink_r).max(0.05));
+        d / (1.0 + slope * slope).sqrt() - grow
+    }
+}
+
+/// One tooth in its own frame: x mesial→distal, y lingual→buccal... (see `Tooth::local`), z occlusal, CEJ at z = 0.
+#[derive(Debug, Clone)]
+struct Tooth {
+    fdi: u8,
+    center: DVec3,
+    half: DVec3,
+    #[allow(dead_code)]
+    crown_h: f64,
+    cusps: Vec<(DVec3, f64)>,
+    fissures: Vec<(DVec3, DVec3)>,
+    roots: Vec<Root>,
+    enamel_t: f64,
+    caries: Option<(DVec3, f64)>,
+    metal: Option<(DVec3, DVec3)>,
+    /// local bounding box (min, max), padded
+    bbox: (DVec3, DVec3),
+}
+
+/// SDF values of one tooth at a point (all negative inside).
+#[derive(Debug, Clone, Copy)]
+struct ToothEval {
+    tooth: f64,
+    dentin_core: f64,
+    pulp: f64,
+    caries: f64,
+    metal: f64,
+}
+
+impl Tooth {
+    fn molar(fdi: u8, center: DVec3, scale: f64, caries: bool, metal: bool) -> Tooth {
+        let s = scale;
+        let h = 7.3 * s;
+        let cusps = vec![
+            (DVec3::new(-3.2, -2.6, h - 2.2 * s) * DVec3::new(s, s, 1.0), 2.2 * s), // mesiobuccal
+            (DVec3::new(0.4, -2.9, h - 2.2 * s) * DVec3::new(s, s, 1.0), 2.2 * s),  // distobuccal
+            (DVec3::new(3.6, -1.6, h - 2.4 * s) * DVec3::new(s, s, 1.0), 1.9 * s),  // distal
+            (DVec3::new(-2.6, 2.5, h - 2.0 * s) * DVec3::new(s, s, 1.0), 2.0 * s),  // mesiolingual
+            (DVec3::new(2.0, 2.5, h - 2.0 * s) * DVec3::new(s, s, 1.0), 2.0 * s),   // distolingual
+        ];
+        let fz = h - 1.3 * s;
+        let fissures = vec![
+            (DVec3::new(-3.8 * s, 0.0, fz), DVec3::new(3.8 * s, 0.2, fz)),   // central groove
+            (DVec3::new(-1.4 * s, -0.1, fz), DVec3::new(-1.2 * s, -3.5 * s, fz - 0.6)), // mesiobuccal groove
+            (DVec3::new(2.1 * s, 0.0, fz), DVec3::new(2.4 * s, -3.2 * s, fz - 0.6)),   // distobuccal groove
+            (DVec3::new(-0.2 * s, 0.1, fz), DVec3::new(-0.3 * s, 3.3 * s, fz - 0.6)), // lingual groove
+        ];
+        let roots = vec![
+            Root { top: DVec3::new(-2.3 * s, 0.0, 1.5), apex: DVec3::new(-2.6 * s, 0.0, -13.0 * s), r_top: 1.7 * s, r_apex: 0.6, w_top: 2.6 * s },
+            Root { top: DVec3::new(2.3 * s, 0.0, 1.5), apex: DVec3::new(2.9 * s, 0.0, -12.0 * s), r_top: 1.6 * s, r_apex: 0.6, w_top: 2.5 * s },
+        ];
+        let half = DVec3::new(5.5 * s, 5.0 * s, 0.5 * (h - 1.9 * s));
+        Tooth {
+            fdi,
+            center,
+            half,
+            crown_h: h,
+            cusps,
+            fissures,
+            roots,
+            enamel_t: 1.6 * s,
+            caries: caries.then(|| (DVec3::new(-0.6 * s, 0.2, h - 2.6 * s), 1.7 * s)),
+            metal: metal.then(|| (DVec3::new(-1.5 * s, 0.0, h - 1.2 * s), DVec3::new(1.5 * s, 0.0, h - 1.2 * s))),
+            bbox: (DVec3::new(-6.5 * s, -6.0 * s, -14.5 * s), DVec3::new(6.5 * s, 6.0 * s, h + 0.5)),
+        }
+    }
+
+    fn premolar(fdi: u8, center: DVec3) -> Tooth {
+        let h = 7.8;
+        Tooth {
+            fdi,
+            center,
+            half: DVec3::new(3.5, 3.9, 0.5 * (h - 2.2)),
+            crown_h: h,
+            cusps: vec![(DVec3::new(0.0, -1.6, h - 2.4), 2.4), (DVec3::new(0.2, 2.0, h - 2.8), 1.8)],
+            fissures: vec![(DVec3::new(-2.0, 0.4, h - 1.6), DVec3::new(2.0, 0.4, h - 1.6))],
+            roots: vec![Root { top: DVec3::new(0.0, 0.0, 1.5), apex: DVec3::new(0.3, 0.0, -14.0), r_top: 2.2, r_apex: 0.6, w_top: 1.8 }],
+            enamel_t: 1.3,
+            caries: None,
+            metal: None,
+            bbox: (DVec3::new(-4.5, -5.0, -15.0), DVec3::new(4.5, 5.0, h + 0.5)),
+        }
+    }
+
+    fn outer(&self, p: DVec3) -> f64 {
+        let body = sd_round_box(p - DVec3::new(0.0, 0.0, 0.4 + self.half.z), self.half, 2.6f64.min(self.half.z));
+        let mut cusps = f64::INFINITY;
+        for &(c, r) in &self.cusps {
+            cusps = smin(cusps, (p - c).length() - r, 1.2);
+        }
+        let mut crown = smin(body, cusps, 1.0);
+        for &(a, b) in &self.fissures {
+            crown = smax(crown, -sd_capsule(p, a, b, 0.35), 0.4);
+        }
+        let mut roots = f64::INFINITY;
+        for r in &self.roots {
+            roots = smin(roots, r.sdf(p, 0.0, 0.0), 1.0);
+        }
+        smin(crown, roots, 1.5)
+    }
+
+    fn pulp(&self, p: DVec3, dentin_core: f64) -> f64 {
+        let chamber = sd_round_box(p - DVec3::new(0.0, 0.0, 2.6), DVec3::new(self.half.x * 0.5, self.half.y * 0.45, 0.9), 0.8);
+        let mut d = chamber;
+        for &(c, _) in &self.cusps {
+            let base = DVec3::new(c.x * 0.55, c.y * 0.55, 3.0);
+            let tip = DVec3::new(c.x * 0.65, c.y * 0.65, 4.5);
+            d = smin(d, sd_capsule(p, base, tip, 0.45), 0.6);
+        }
+        for r in &self.roots {
+            let top = DVec3::new(r.top.x, r.top.y, 2.4);
+            let apex = r.apex + (r.top - r.apex).normalize() * 2.0;
+            d = smin(d, sd_round_cone(p, top, apex, 0.55, 0.3), 0.8);
+        }
+        // Nest inside dentin: keep a wall of at least 0.3 (in dentin_core units, ~0.6 mm).
+        d.max(dentin_core + 0.3)
+    }
+
+    fn eval(&self, p: DVec3) -> ToothEval {
+        let t = self.outer(p);
+        // Enamel thickness ramps from 0 at the CEJ to enamel_t 2.5 mm above it (smoothstep);
+        // dividing by 1 + max slope keeps the dentin core Lipschitz ≤ 1.
+        let u = (p.z / 2.5).clamp(0.0, 1.0);
+        let th = self.enamel_t * u * u * (3.0 - 2.0 * u);
+        let slope = self.enamel_t * 1.5 / 2.5;
+        let core = (t + th) / (1.0 + slope);
+        let pulp = self.pulp(p, core);
+        let caries = match self.caries {
+            // stays 0.6 mm clear of the pulp: a lesion that has not reached it yet
+            Some((c, r)) => ((p - c).length() - r).max(t + 0.25).max(0.6 - pulp),
+            None => f64::INFINITY,
+        };
+        let metal = match self.metal {
+            Some((a, b)) => sd_capsule(p, a, b, 1.2).max(t),
+            None => f64::INFINITY,
+        };
+        ToothEval { tooth: t, dentin_core: core, pulp, caries, metal }
+    }
+}
+
+/// Where each tooth sits in LPS, and the mandible around them.
+#[derive(Debug, Clone)]
+pub struct Phantom {
+    pub spec: PhantomSpec,
+    teeth: Vec<Tooth>,
+    /// local→LPS rotation columns (x distal, y lingual, z occlusal) and the CEJ centre of 36
+    axes: [DVec3; 3],
+    anchor: DVec3,
+    /// LPS of voxel (0,0,0)
+    pub origin: [f64; 3],
+}
+
+/// Scene SDF values at one point.
+#[derive(Debug, Clone, Copy)]
+struct SceneEval {
+    label: Label,
+    /// lower bound of the distance to the nearest label change
+    margin: f64,
+}
+
+const PDL_MM: f64 = 0.2;
+const CORTICAL_MM: f64 = 1.2;
+
+impl Phantom {
+    pub fn new(spec: &PhantomSpec) -> Phantom {
+        // Left mandible: distal runs posterior and slightly lateral; occlusal is superior.
+        let distal = DVec3::new(0.25, 1.0, 0.0).normalize();
+        let occlusal = DVec3::Z;
+        let lingual = occlusal.cross(distal).normalize() * -1.0;
+        let axes = [distal, lingual, occlusal];
+        let anchor = DVec3::new(24.0, 18.0, -35.0);
+        let teeth = vec![
+            Tooth::premolar(35, DVec3::new(-9.5, 0.2, 0.3)),
+            Tooth::molar(36, DVec3::ZERO, 1.0, spec.caries, false),
+            Tooth::molar(37, DVec3::new(11.2, 0.0, -0.2), 0.95, false, spec.restoration),
+        ];
+        let s = spec.spacing_mm;
+        let centre = anchor + occlusal * -3.0;
+        let origin = [
+            centre.x - 0.5 * (spec.dims[0] as f64 - 1.0) * s,
+            centre.y - 0.5 * (spec.dims[1] as f64 - 1.0) * s,
+            centre.z - 0.5 * (spec.dims[2] as f64 - 1.0) * s,
+        ];
+        Phantom { spec: spec.clone(), teeth, axes, anchor, origin }
+    }
+
+    fn to_local(&self, p: DVec3) -> DVec3 {
+        let d = p - self.anchor;
+        DVec3::new(d.dot(self.axes[0]), d.dot(self.axes[1]), d.dot(self.axes[2]))
+    }
+
+    fn to_world(&self, l: DVec3) -> DVec3 {
+        self.anchor + self.axes[0] * l.x + self.axes[1] * l.y + self.axes[2] * l.z
+    }
+
+    /// FDI numbers of the teeth in the scene.
+    pub fn teeth(&self) -> Vec<u8> {
+        self.teeth.iter().map(|t| t.fdi).collect()
+    }
+
+    fn bone(&self, l: DVec3) -> f64 {
+        sd_round_box(l - DVec3::new(0.0, 0.0, -16.5), DVec3::new(40.0, 6.8, 15.0), 2.5)
+    }
+    fn gum(&self, l: DVec3) -> f64 {
+        sd_round_box(l - DVec3::new(0.0, 0.0, -15.0), DVec3::new(41.0, 8.2, 16.2), 3.0)
+    }
+
+    fn scene(&self, p: DVec3) -> SceneEval {
+        let l = self.to_local(p);
+        let mut margin = f64::INFINITY;
+        let mut teeth_min = f64::INFINITY;
+        let mut inside: Option<(ToothEval, &Tooth)> = None;
+        for t in &self.teeth {
+            let q = l - t.center;
+            let out = (t.bbox.0 - q).max(q - t.bbox.1).max(DVec3::ZERO).length();
+            if out > PDL_MM + 0.05 {
+                margin = margin.min(out - PDL_MM - 0.05);
+                continue;
+            }
+            let e = t.eval(q);
+            teeth_min = teeth_min.min(e.tooth);
+            margin = margin.min(e.tooth.abs()).min((e.tooth - PDL_MM).abs());
+            if e.tooth < 0.0 {
+                margin = margin.min(e.dentin_core.abs()).min(e.pulp.abs()).min(e.caries.abs()).min(e.metal.abs());
+                inside = Some((e, t));
+            }
+        }
+        if let Some((e, _)) = inside {
+            let label = if e.metal < 0.0 {
+                Label::Metal
+            } else if e.caries < 0.0 {
+                Label::Caries
+            } else if e.pulp < 0.0 {
+                Label::Pulp
+            } else if e.dentin_core < 0.0 {
+                Label::Dentin
+            } else {
+                Label::Enamel
+            };
+            return SceneEval { label, margin };
+        }
+        let b = self.bone(l);
+        let g = self.gum(l);
+        margin = margin.min(b.abs()).min((b + CORTICAL_MM).abs()).min(g.abs());
+        let label = if teeth_min - PDL_MM < 0.0 {
+            Label::SoftTissue
+        } else if b < 0.0 {
+            if b + CORTICAL_MM < 0.0 {
+                Label::BoneCancellous
+            } else {
+                Label::BoneCortical
+            }
+        } else if g < 0.0 {
+            Label::SoftTissue
+        } else {
+            Label::Air
+        };
+        SceneEval { label, margin }
+    }
+
+    /// Ground-truth label at an LPS point.
+    pub fn label_at(&self, p: DVec3) -> Label {
+        self.scene(p).label
+    }
+
+    /// Signed distance bound (mm, negative inside, Lipschitz ≤ 1) of one label's region in the
+    /// whole scene, at an LPS point.
+    pub fn sdf(&self, label: Label, p: DVec3) -> f64 {
+        let l = self.to_local(p);
+        let mut teeth_min = f64::INFINITY;
+        let mut best = f64::INFINITY;
+        for t in &self.teeth {
+            let e = t.eval(l - t.center);
+            teeth_min = teeth_min.min(e.tooth);
+            let special = e.caries.min(e.metal);
+            let v = match label {
+                Label::Enamel => e.tooth.max(-e.dentin_core).max(-special),
+                Label::Dentin => e.dentin_core.max(-e.pulp).max(-special),
+                Label::Pulp => e.pulp,
+                Label::Caries => e.caries,
+                Label::Metal => e.metal,
+                _ => f64::INFINITY,
+            };
+            best = best.min(v);
+        }
+        let socket = teeth_min - PDL_MM;
+        let b = self.bone(l);
+        let g = self.gum(l);
+        match label {
+            Label::BoneCortical => b.max(-(b + CORTICAL_MM)).max(-socket),
+            Label::BoneCancellous => (b + CORTICAL_MM).max(-socket),
+            Label::SoftTissue => g.min(socket).max(-teeth_min).max(-(b.max(-socket))),
+            Label::Air => -(g.min(socket)),
+            _ => best,
+        }
+    }
+
+    /// SDF of one tooth's tissue (the tooth of interest is 36). `None` for an unknown FDI.
+    pub fn tooth_sdf(&self, fdi: u8, label: Label, p: DVec3) -> Option<f64> {
+        let t = self.teeth.iter().find(|t| t.fdi == fdi)?;
+        let e = t.eval(self.to_local(p) - t.center);
+        let special = e.caries.min(e.metal);
+        Some(match label {
+            Label::Enamel => e.tooth.max(-e.dentin_core).max(-special),
+            Label::Dentin => e.dentin_core.max(-e.pulp).max(-special),
+            Label::Pulp => e.pulp,
+            Label::Caries => e.caries,
+            Label::Metal => e.metal,
+            _ => e.tooth,
+        })
+    }
+
+    /// LPS axis-aligned bounds (min, max) of a tooth, mm.
+    pub fn tooth_bounds(&self, fdi: u8) -> Option<([f64; 3], [f64; 3])> {
+        let t = self.teeth.iter().find(|t| t.fdi == fdi)?;
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for c in 0..8 {
+            let l = DVec3::new(
+                if c & 1 == 0 { t.bbox.0.x } else { t.bbox.1.x },
+                if c & 2 == 0 { t.bbox.0.y } else { t.bbox.1.y },
+                if c & 4 == 0 { t.bbox.0.z } else { t.bbox.1.z },
+            ) + t.center;
+            let w = self.to_world(l);
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+        Some((lo.to_array(), hi.to_array()))
+    }
+
+    /// LPS point in the middle of a tooth's crown (a seed for segmentation).
+    pub fn tooth_seed(&self, fdi: u8) -> Option<[f64; 3]> {
+        let t = self.teeth.iter().find(|t| t.fdi == fdi)?;
+        Some(self.to_world(t.center + DVec3::new(0.0, 0.0, 2.0)).to_array())
+    }
+
+    /// Volume of one tissue of tooth 36 in mm³ (see [`Phantom::tooth_volumes_mm3`]).
+    pub fn true_volume_mm3(&self, label: Label) -> f64 {
+        self.tooth_volumes_mm3(36)[label as usize]
+    }
+
+    /// Volumes (mm³, indexed by `Label as usize`) of one tooth's tissues, by adaptive octree
+    /// midpoint sampling: 0.8 mm cells are split while the SDF margin cannot prove them uniform,
+    /// down to 0.05 mm leaves sampled at their centre. Deterministic; cost ∝ surface area / h².
+    /// Agrees with 0.025 mm leaves within 0.2 % per tissue (measured: enamel 0.001 %, dentin 0.03 %, pulp 0.03 %, caries 0.2 %); ~1.3 s on 2 cores.
+    pub fn tooth_volumes_mm3(&self, fdi: u8) -> [f64; 9] {
+        self.tooth_volumes_at(fdi, 0.05)
+    }
+
+    pub fn tooth_volumes_at(&self, fdi: u8, leaf: f64) -> [f64; 9] {
+        let Some(t) = self.teeth.iter().find(|t| t.fdi == fdi) else { return [0.0; 9] };
+        let (lo, hi) = t.bbox;
+        let mut cell = leaf;
+        while cell < 0.8 {
+            cell *= 2.0;
+        }
+        let n = ((hi - lo) / cell).ceil();
+        let (nx, ny, nz) = (n.x as usize, n.y as usize, n.z as usize);
+        let sums: Vec<[f64; 9]> = (0..nz)
+            .into_par_iter()
+            .map(|k| {
+                let mut acc = [0.0; 9];
+                for j in 0..ny {
+                    for i in 0..nx {
+                        let c = lo + DVec3::new(i as f64 + 0.5, j as f64 + 0.5, k as f64 + 0.5) * cell;
+                        self.integrate_cell(t, c, cell, leaf, &mut acc);
+                    }
+                }
+                acc
+            })
+            .collect();
+        let mut out = [0.0; 9];
+        for s in sums {
+            for (o, v) in out.iter_mut().zip(s) {
+                *o += v;
+            }
+        }
+        out
+    }
+
+    fn integrate_cell(&self, t: &Tooth, c: DVec3, size: f64, leaf: f64, acc: &mut [f64; 9]) {
+        let (lab, m) = self.tooth_label_local(t, c);
+        if size <= leaf * 1.0001 || m > size * 0.8661 {
+            if let Some(l) = lab {
+                acc[l as usize] += size * size * size;
+            }
+            return;
+        }
+        let h = size * 0.25;
+        for d in 0..8 {
+            let o = DVec3::new(if d & 1 == 0 { -h } else { h }, if d & 2 == 0 { -h } else { h }, if d & 4 == 0 { -h } else { h });
+            self.integrate_cell(t, c + o, size * 0.5, leaf, acc);
+        }
+    }
+
+    fn tooth_label_local(&self, t: &Tooth, q: DVec3) -> (Option<Label>, f64) {
+        let e = t.eval(q);
+        let mut m = e.tooth.abs();
+        if e.tooth >= 0.0 {
+            return (None, m);
+        }
+        m = m.min(e.dentin_core.abs()).min(e.pulp.abs()).min(e.caries.abs()).min(e.metal.abs());
+        let l = if e.metal < 0.0 {
+            Label::Metal
+        } else if e.caries < 0.0 {
+            Label::Caries
+        } else if e.pulp < 0.0 {
+            Label::Pulp
+        } else if e.dentin_core < 0.0 {
+            Label::Dentin
+        } else {
+            Label::Enamel
+        };
+        (Some(l), m)
+    }
+
+    fn voxel_center(&self, i: usize, j: usize, k: usize) -> DVec3 {
+        let s = self.spec.spacing_mm;
+        DVec3::new(self.origin[0] + i as f64 * s, self.origin[1] + j as f64 * s, self.origin[2] + k as f64 * s)
+    }
+
+    /// Ground truth at the scan grid (label at each voxel centre), all teeth.
+    pub fn labels(&self) -> LabelVolume {
+        let [nx, ny, nz] = self.spec.dims;
+        let mut labels = vec![0u8; nx * ny * nz];
+        labels.par_chunks_mut(nx * ny).enumerate().for_each(|(k, sl)| {
+            for j in 0..ny {
+                for i in 0..nx {
+                    sl[i + nx * j] = self.label_at(self.voxel_center(i, j, k)) as u8;
+                }
+            }
+        });
+        LabelVolume { dims: self.spec.dims, spacing: [self.spec.spacing_mm; 3], origin: self.origin, direction: IDENTITY, labels }
+    }
+
+    /// Ground truth of one tooth: its own tissues kept, other teeth's tissues set to air
+    /// (so Dice of a one-tooth segmentation compares like with like).
+    pub fn tooth_labels(&self, fdi: u8) -> LabelVolume {
+        let mut lv = self.labels();
+        let Some(t) = self.teeth.iter().find(|t| t.fdi == fdi) else { return lv };
+        let [nx, ny, _] = lv.dims;
+        lv.labels.par_chunks_mut(nx * ny).enumerate().for_each(|(k, sl)| {
+            for (n, l) in sl.iter_mut().enumerate() {
+                if *l >= Label::Dentin as u8 && t.eval(self.to_local(self.voxel_center(n % nx, n / nx, k)) - t.center).tooth >= 0.0 {
+                    *l = Label::Air as u8;
+                }
+            }
+        });
+        lv
+    }
+
+    /// The CBCT-like scan: voxel-averaged (2³ near boundaries) typical HU per tissue, Gaussian
+    /// point-spread, metal streaks, seeded noise, then `scale * HU + offset`, saturating at the
+    /// detector's top (3071 HU). Deterministic from the seed.
+    pub fn scan(&self) -> Volume {
+        let [nx, ny, nz] = self.spec.dims;
+        let s = self.spec.spacing_mm;
+        let mut hu = vec![0f32; nx * ny * nz];
+        let metal_hu = 8000.0f32;
+        let hu_of = |l: Label| if l == Label::Metal { metal_hu } else { l.typical_hu() as f32 };
+        hu.par_chunks_mut(nx * ny).enumerate().for_each(|(k, sl)| {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let c = self.voxel_center(i, j, k);
+                    let e = self.scene(c);
+                    sl[i + nx * j] = if e.margin > 0.87 * s {
+                        hu_of(e.label)
+                    } else {
+                        let mut acc = 0.0;
+                        for d in 0..8 {
+                            let o = DVec3::new(
+                                if d & 1 == 0 { -0.25 } else { 0.25 },
+                                if d & 2 == 0 { -0.25 } else { 0.25 },
+                                if d & 4 == 0 { -0.25 } else { 0.25 },
+                            ) * s;
+                            acc += hu_of(self.label_at(c + o));
+                        }
+                        acc / 8.0
+                    };
+                }
+            }
+        });
+        if self.spec.blur_sigma_mm > 0.0 {
+            gaussian_blur(&mut hu, self.spec.dims, [self.spec.blur_sigma_mm / s; 3]);
+        }
+        if self.spec.restoration {
+            self.add_streaks(&mut hu);
+        }
+        let sigma = self.spec.noise_sigma;
+        let (scale, offset) = (self.spec.scale, self.spec.offset);
+        let top = 3071.0f32;
+        let seed = self.spec.seed;
+        hu.par_chunks_mut(nx * ny).enumerate().for_each(|(k, sl)| {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
+            for v in sl.iter_mut() {
+                let n = if sigma > 0.0 {
+                    let u1: f64 = rng.random::<f64>().max(1e-300);
+                    let u2: f64 = rng.random::<f64>();
+                    ((-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()) as f32 * sigma
+                } else {
+                    0.0
+                };
+                *v = scale * (*v + n).min(top) + offset;
+            }
+        });
+        let source = SourceInfo {
+            format: "phantom".into(),
+            path: format!("phantom:seed={}", self.spec.seed),
+            modality: Some("CT".into()),
+            manufacturer: Some("dentsim phantom".into()),
+            ..Default::default()
+        };
+        Volume { dims: self.spec.dims, spacing: [s; 3], origin: self.origin, direction: IDENTITY, values: hu, source }
+    }
+
+    /// Bright and dark bands along lines through the metal in each axial slice it spans, as
+    /// beam hardening and photon starvation do in CBCT.
+    fn add_streaks(&self, hu: &mut [f32]) {
+        let Some(t) = self.teeth.iter().find(|t| t.metal.is_some()) else { return };
+        let Some((a, b)) = t.metal else { return };
+        let centre = self.to_world(t.center + (a + b) * 0.5);
+        let [nx, ny, _] = self.spec.dims;
+        let s = self.spec.spacing_mm;
+        let (z0, z1) = (centre.z - 2.0, centre.z + 2.0);
+        hu.par_chunks_mut(nx * ny).enumerate().for_each(|(k, sl)| {
+            let z = self.origin[2] + k as f64 * s;
+            if z < z0 || z > z1 {
+                return;
+            }
+            let fade = 1.0 - ((z - centre.z) / 2.0).abs();
+            for j in 0..ny {
+                for i in 0..nx {
+                    let p = self.voxel_center(i, j, k);
+                    let d = DVec3::new(p.x - centre.x, p.y - centre.y, 0.0);
+                    let r = d.length();
+                    let mut add = 0.0;
+                    for n in 0..6 {
+                        let th = n as f64 * std::f64::consts::PI / 6.0 + 0.2;
+                        let dir = DVec3::new(th.cos(), th.sin(), 0.0);
+                        let perp = (d - dir * d.dot(dir)).length();
+                        let sign = if n % 2 == 0 { 1.0 } else { -1.0 };
+                        add += sign * 900.0 * (-perp * perp / (2.0 * 0.3 * 0.3)).exp() / (1.0 + r / 6.0);
+                    }
+                    sl[i + nx * j] += (add * fade) as f32;
+                }
+            }
+        });
+    }
+}
+
+/// Separable Gaussian blur in voxel units (σ per axis), clamped at the borders. O(n·r) per axis.
+pub fn gaussian_blur(v: &mut [f32], dims: [usize; 3], sigma: [f64; 3]) {
+    let [nx, ny, nz] = dims;
+    for axis in 0..3 {
+        if sigma[axis] <= 0.0 || dims[axis] < 2 {
+            continue;
+        }
+        let r = (3.0 * sigma[axis]).ceil() as isize;
+        let mut w: Vec<f32> = (-r..=r).map(|d| (-(d * d) as f64 / (2.0 * sigma[axis] * sigma[axis])).exp() as f32).collect();
+        let sum: f32 = w.iter().sum();
+        w.iter_mut().for_each(|x| *x /= sum);
+        let n = dims[axis] as isize;
+        let (stride, lines): (usize, Vec<usize>) = match axis {
+            0 => (1, (0..ny * nz).map(|l| l * nx).collect()),
+            1 => (nx, (0..nz).flat_map(|k| (0..nx).map(move |i| i + nx * ny * k)).collect()),
+            _ => (nx * ny, (0..nx * ny).collect()),
+        };
+        let src = v.to_vec();
+        let out: Vec<(usize, Vec<f32>)> = lines
+            .par_iter()
+            .map(|&start| {
+                let line: Vec<f32> = (0..n as usize).map(|t| src[start + t * stride]).collect();
+                let res = (0..n)
+                    .map(|t| {
+                        let mut acc = 0.0f32;
+                        for (q, wq) in w.iter().enumerate() {
+                            let u = (t + q as isize - r).clamp(0, n - 1) as usize;
+                            acc += wq * line[u];
+                        }
+                        acc
+                    })
+                    .collect();
+                (start, res)
+            })
+            .collect();
+        for (start, res) in out {
+            for (t, x) in res.into_iter().enumerate() {
+                v[start + t * stride] = x;
+            }
+        }
+    }
+}
