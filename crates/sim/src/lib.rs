@@ -17,6 +17,7 @@ pub mod plot;
 pub mod preparation;
 pub mod proxy;
 pub mod replay;
+pub mod scan;
 pub mod session;
 pub mod tissue;
 pub mod watchdog;
