@@ -3,7 +3,6 @@ use std::path::PathBuf;
 use anyhow::{Context, Result};
 use dentsim_sim::export::{write_atomic, write_stl, write_vtp};
 use dentsim_sim::preparation::{PhantomStroke, TissueOutcome};
-use dentsim_sim::tissue::TissueTable;
 use serde::Serialize;
 
 #[derive(clap::Args)]
@@ -18,10 +17,10 @@ pub struct Args {
     #[arg(long, allow_negative_numbers = true, default_value_t = PhantomStroke::default().burr_diameter_mm)]
     burr_diameter: f64,
     /// Burr tip at the stroke's start, mm: X,Y,Z [default: -2,0,4.2].
-    #[arg(long, allow_hyphen_values = true, value_parser = parse_xyz)]
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::args::parse_xyz)]
     start: Option<[f64; 3]>,
     /// Burr tip at the stroke's end, mm: X,Y,Z [default: 1,0,2.9].
-    #[arg(long, allow_hyphen_values = true, value_parser = parse_xyz)]
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::args::parse_xyz)]
     end: Option<[f64; 3]>,
     /// Tissue table overrides (TOML).
     #[arg(long)]
@@ -40,23 +39,8 @@ struct Summary<'a> {
     triangles: Vec<(String, usize)>,
 }
 
-/// "X,Y,Z" in mm.
-fn parse_xyz(text: &str) -> Result<[f64; 3], String> {
-    let values: Vec<f64> = text
-        .split(',')
-        .map(|v| v.trim().parse::<f64>().map_err(|e| format!("'{v}': {e}")))
-        .collect::<Result<_, _>>()?;
-    values.try_into().map_err(|v: Vec<f64>| format!("expected X,Y,Z (3 numbers), got {}", v.len()))
-}
-
 pub fn run(args: &Args) -> Result<()> {
-    let table = match &args.tissues {
-        Some(path) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            TissueTable::default().with_overrides(&text, &path.display().to_string())?
-        }
-        None => TissueTable::default(),
-    };
+    let table = crate::args::tissue_table(args.tissues.as_deref())?;
     let defaults = PhantomStroke::default();
     let params = PhantomStroke {
         voxel_size_mm: args.voxel,

@@ -1,7 +1,10 @@
 //! `dentsim`: batch preparation planning and measurement from the command line.
+mod args;
 mod bench;
 mod demo;
+mod phantom;
 mod progress;
+mod segment;
 
 use clap::{Parser, Subcommand};
 
@@ -16,6 +19,10 @@ struct Cli {
 enum Command {
     /// Build the phantom, cut a stroke, write surfaces, tissues.vdb and summary.json.
     Demo(demo::Args),
+    /// Turn a CBCT scan into one tooth's tissue level sets (.vdb) and a report.
+    Segment(segment::Args),
+    /// Write the built-in molar phantom scan as DICOM, NIfTI or MetaImage.
+    Phantom(phantom::Args),
     /// Time dentsim beside its peer (plain OpenVDB and mesh-based ways) in the same run.
     Bench(bench::Args),
 }
@@ -24,5 +31,7 @@ fn main() -> anyhow::Result<()> {
     match Cli::parse().command {
         Command::Demo(args) => demo::run(&args),
         Command::Bench(args) => bench::run(&args),
+        Command::Segment(args) => segment::run(&args),
+        Command::Phantom(args) => phantom::run(&args),
     }
 }

@@ -1,0 +1,87 @@
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use dentsim_cbct::{Label, ReadOptions};
+use dentsim_sim::export::write_atomic;
+use dentsim_sim::scan::ScanToTissues;
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// A DICOM series folder, a .nii/.nii.gz or a .mha/.mhd file.
+    input: PathBuf,
+    /// The tissues .vdb to write; its report goes beside it as <out>.json.
+    #[arg(long)]
+    out: PathBuf,
+    /// Voxel size of the tissue level sets, mm (finer than the scan's).
+    #[arg(long, default_value_t = 0.05)]
+    voxel: f64,
+    /// FDI (ISO 3950) number of the tooth.
+    #[arg(long, default_value_t = 36)]
+    tooth: u8,
+    /// A point in the tooth, LPS mm: X,Y,Z [default: the scan's centre, nearest tooth].
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::args::parse_xyz)]
+    point: Option<[f64; 3]>,
+    /// Tissue table overrides (TOML).
+    #[arg(long)]
+    tissues: Option<PathBuf>,
+    /// Grey values overriding the automatic calibration, e.g. soft_tissue=1150,dentin=2580,enamel=3350.
+    #[arg(long, value_delimiter = ',')]
+    thresholds: Vec<String>,
+    /// Refuse scans larger than this (GiB of 32-bit voxels), checked before reading voxel data.
+    #[arg(long, default_value_t = 2.0)]
+    max_memory_gib: f64,
+}
+
+pub fn run(args: &Args) -> Result<()> {
+    let table = crate::args::tissue_table(args.tissues.as_deref())?;
+    let thresholds = parse_thresholds(&args.thresholds)?;
+    let request = ScanToTissues {
+        voxel_size_mm: args.voxel,
+        fdi: args.tooth,
+        seed_mm: args.point,
+        thresholds,
+        ..ScanToTissues::default()
+    };
+    request.validate()?;
+    if !(args.max_memory_gib.is_finite() && args.max_memory_gib > 0.0) {
+        bail!("--max-memory-gib: {} is not a positive size", args.max_memory_gib);
+    }
+    let options = ReadOptions { max_bytes: (args.max_memory_gib * (1u64 << 30) as f64) as u64, series_uid: None };
+
+    let bar = crate::progress::bar(100);
+    bar.set_message(format!("reading {}", args.input.display()));
+    let scan = dentsim_cbct::read(&args.input, &options)?;
+    let (mut model, report) = request.run(&scan, &table, &mut |step, fraction| {
+        bar.set_message(step.to_owned());
+        bar.set_position((fraction * 95.0) as u64);
+    })?;
+    bar.set_message(format!("writing {}", args.out.display()));
+    model.save(&args.out)?;
+    let json = serde_json::to_vec_pretty(&report)?;
+    let report_path = PathBuf::from(format!("{}.json", args.out.display()));
+    write_atomic(&report_path, |w| w.write_all(&json)).with_context(|| format!("writing {}", report_path.display()))?;
+    bar.finish_and_clear();
+    println!("calibration: {} (grey = {:.3} HU + {:.1})", report.calibration.method, report.calibration.hu_scale, report.calibration.hu_offset);
+    for t in &report.tissues {
+        println!("{:<8} {:>9.2} mm³", t.name, t.volume_mm3);
+    }
+    println!("wrote {} and {}", args.out.display(), report_path.display());
+    Ok(())
+}
+
+fn parse_thresholds(items: &[String]) -> Result<Option<Vec<(Label, f64)>>> {
+    if items.is_empty() {
+        return Ok(None);
+    }
+    let mut out = Vec::new();
+    for item in items {
+        let (name, value) = item.split_once('=').with_context(|| format!("--thresholds: '{item}' is not TISSUE=GREY"))?;
+        let label = Label::from_name(name.trim()).with_context(|| format!("--thresholds: unknown tissue '{name}'"))?;
+        let grey: f64 = value.trim().parse().with_context(|| format!("--thresholds: '{value}' for {name} is not a number"))?;
+        if !grey.is_finite() {
+            bail!("--thresholds: {name}={value} is not finite");
+        }
+        out.push((label, grey));
+    }
+    Ok(Some(out))
+}
