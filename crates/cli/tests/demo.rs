@@ -82,6 +82,8 @@ fn bench_quick_prints_every_row_as_json() {
         }
         assert!(row["peer"].as_str().is_some_and(|p| !p.is_empty()));
     }
+    let segment = rows.iter().find(|r| r["name"] == "segment_scan").expect("segment_scan");
+    assert!(number(segment, "ours_median_us") > 0.0 && number(segment, "peak_memory_mb") > 10.0, "{segment}");
     for deadline in ["loop_period", "cut_to_visible"] {
         let row = rows.iter().find(|r| r["name"] == deadline).unwrap_or_else(|| panic!("{deadline}"));
         assert!(number(row, "ours_median_us") > 0.0 && number(row, "ours_p999_us") > 0.0, "{row}");

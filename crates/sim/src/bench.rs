@@ -18,18 +18,25 @@ use crate::phantom::CapsuleTooth;
 use crate::session::{run_session, SessionOptions};
 use crate::tissue::TissueTable;
 
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct BenchRow {
     pub name: String,
+    #[serde(deserialize_with = "nan_if_null")]
     pub ours_median_us: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     pub ours_p99_us: f64,
     pub peer: String,
+    #[serde(deserialize_with = "nan_if_null")]
     pub peer_median_us: f64,
     /// Peer median ÷ our median: above 1 means dentsim is faster.
+    #[serde(deserialize_with = "nan_if_null")]
     pub ratio: f64,
     /// 99.9th percentile, for rows about deadlines.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ours_p999_us: Option<f64>,
+    /// Peak resident memory of the process that ran the row, for rows with a memory goal.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub peak_memory_mb: Option<f64>,
 }
 
 impl BenchRow {
@@ -43,6 +50,7 @@ impl BenchRow {
             peer_median_us,
             ratio: peer_median_us / ours_median_us,
             ours_p999_us: None,
+            peak_memory_mb: None,
         }
     }
 
@@ -56,8 +64,14 @@ impl BenchRow {
             peer_median_us: f64::NAN,
             ratio: f64::NAN,
             ours_p999_us: Some(ours.quantile(0.999)),
+            peak_memory_mb: None,
         }
     }
+}
+
+/// JSON has no NaN: serde_json writes it as null, which reads back as NaN.
+fn nan_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f64, D::Error> {
+    Ok(<Option<f64> as serde::Deserialize>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
 /// Microseconds per repetition.
@@ -272,6 +286,35 @@ pub fn loop_period(model: &TissueModel, seconds: f64) -> Result<Vec<BenchRow>> {
         BenchRow::without_peer("loop_period", &periods, "goal: p99.9 <= 1100 us"),
         BenchRow::without_peer("cut_to_visible", &latency, "goal: one mesher period (33 ms at 30 Hz)"),
     ])
+}
+
+/// Issue 3's goal: a 400×400×300 scan at 0.2 mm to one tooth's tissues at 0.05 mm in ≤ 10 s and
+/// ≤ 2 GB. Times calibration, segmentation, crop and level sets (not making the scan, which stands
+/// in for reading it); the peak memory is this process's, so run it in a process of its own
+/// (`dentsim bench` does). `quick` uses the small default scan.
+pub fn segment_scan(quick: bool) -> Result<BenchRow> {
+    use dentsim_cbct::{Phantom, PhantomSpec};
+    let spec = if quick { PhantomSpec::default() } else { PhantomSpec::benchmark() };
+    let phantom = Phantom::new(&spec);
+    let scan = phantom.scan();
+    let request = crate::scan::ScanToTissues { seed_mm: phantom.tooth_seed(36), ..Default::default() };
+    let start = Instant::now();
+    request.run(&scan, &TissueTable::default(), &mut |_, _| {})?;
+    let seconds = Timings(vec![start.elapsed().as_secs_f64() * 1e6]);
+    let mut row = BenchRow::without_peer("segment_scan", &seconds, "goal: <= 10 s and <= 2 GB for 400x400x300 at 0.2 mm");
+    row.ours_p999_us = None;
+    row.peak_memory_mb = Some(peak_resident_bytes() as f64 / 1e6);
+    Ok(row)
+}
+
+/// Peak resident set size of this process (VmHWM in /proc/self/status; 0 where there is none).
+fn peak_resident_bytes() -> u64 {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    status
+        .lines()
+        .find_map(|l| l.strip_prefix("VmHWM:"))
+        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+        .map_or(0, |kib| kib * 1024)
 }
 
 /// Every row, in a fixed order; `progress(row name)` is called before each.
