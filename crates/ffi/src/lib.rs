@@ -34,15 +34,33 @@ mod bridge {
         triangles: Vec<u32>,
     }
 
+    /// A scalar image as VTK holds it: world = origin + direction · (ijk ∘ spacing), with the
+    /// direction matrix row-major (column c is index axis c), x fastest in the values.
+    struct ImageGeometry {
+        dims: [u32; 3],
+        spacing: [f64; 3],
+        origin: [f64; 3],
+        direction: [f64; 9],
+    }
+
+    /// Which tooth to turn into tissues, and how finely.
+    struct SegmentParams {
+        voxel_size_mm: f64,
+        fdi: u8,
+        use_seed: bool,
+        seed_mm: [f64; 3],
+    }
+
     extern "Rust" {
         fn default_stroke() -> StrokeParams;
         fn phantom_stroke(params: &StrokeParams) -> Result<Vec<TissueSurface>>;
         fn read_tissues(path: &str) -> Result<Vec<TissueSurface>>;
+        fn segment_image(geometry: &ImageGeometry, values: &[f32], params: &SegmentParams) -> Result<Vec<TissueSurface>>;
         fn version() -> String;
     }
 }
 
-pub use bridge::{StrokeParams, TissueSurface};
+pub use bridge::{ImageGeometry, SegmentParams, StrokeParams, TissueSurface};
 
 /// Runs `f`, turning a panic into an error so it never unwinds into C++.
 fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
@@ -88,15 +106,46 @@ pub fn read_tissues(path: &str) -> Result<Vec<TissueSurface>, String> {
     guarded("read tissues", || {
         let model = dentsim_sim::model::TissueModel::load(std::path::Path::new(path), &TissueTable::default())
             .map_err(|e| e.to_string())?;
-        Ok(model
-            .tissues
-            .iter()
-            .map(|t| {
-                let volume = t.grid.volume();
-                surface(t, volume, volume, 0.0)
-            })
-            .collect())
+        Ok(unchanged_surfaces(&model))
     })
+}
+
+/// One tooth's tissue surfaces from a scan already in memory (a ParaView reader's output).
+pub fn segment_image(geometry: &ImageGeometry, values: &[f32], params: &SegmentParams) -> Result<Vec<TissueSurface>, String> {
+    guarded("tissues from scan", || {
+        let d = geometry.direction;
+        let direction = [[d[0], d[3], d[6]], [d[1], d[4], d[7]], [d[2], d[5], d[8]]];
+        let source = dentsim_cbct::SourceInfo { format: "vtkImageData".into(), path: "ParaView input".into(), ..Default::default() };
+        let scan = dentsim_cbct::Volume::new(
+            geometry.dims.map(|n| n as usize),
+            geometry.spacing,
+            geometry.origin,
+            direction,
+            values.to_vec(),
+            source,
+        )
+        .map_err(|e| format!("input image: {e}"))?;
+        let request = dentsim_sim::scan::ScanToTissues {
+            voxel_size_mm: params.voxel_size_mm,
+            fdi: params.fdi,
+            seed_mm: params.use_seed.then_some(params.seed_mm),
+            ..Default::default()
+        };
+        let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
+        Ok(unchanged_surfaces(&model))
+    })
+}
+
+/// Surfaces of a model nothing has cut yet.
+fn unchanged_surfaces(model: &dentsim_sim::model::TissueModel) -> Vec<TissueSurface> {
+    model
+        .tissues
+        .iter()
+        .map(|t| {
+            let volume = t.grid.volume();
+            surface(t, volume, volume, 0.0)
+        })
+        .collect()
 }
 
 /// A tissue's mesh and properties with the volumes the caller measured.
@@ -139,6 +188,21 @@ mod tests {
     fn panics_become_errors() {
         let err = guarded::<()>("probe", || panic!("boom")).unwrap_err();
         assert_eq!(err, "probe: internal error: boom");
+    }
+
+    #[test]
+    fn images_with_bad_geometry_or_values_are_refused() {
+        let geometry = ImageGeometry { dims: [4, 4, 4], spacing: [0.2; 3], origin: [0.0; 3], direction: [1., 0., 0., 0., 1., 0., 0., 0., 1.] };
+        let params = SegmentParams { voxel_size_mm: 0.05, fdi: 36, use_seed: false, seed_mm: [0.0; 3] };
+        let err = segment_image(&geometry, &[0.0; 10], &params).err().expect("refused");
+        assert!(err.contains("input image"), "{err}");
+        let mut values = vec![0.0f32; 64];
+        values[5] = f32::NAN;
+        let err = segment_image(&geometry, &values, &params).err().expect("refused");
+        assert!(err.to_lowercase().contains("nan"), "{err}");
+        let params = SegmentParams { fdi: 19, ..params };
+        let err = segment_image(&geometry, &vec![0.0f32; 64], &params).err().expect("refused");
+        assert!(err.contains("19"), "{err}");
     }
 
     #[test]

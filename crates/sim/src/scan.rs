@@ -53,6 +53,8 @@ pub struct ScanReport {
     /// Scan voxel box kept around the tooth (min inclusive, max exclusive).
     pub crop_min: [usize; 3],
     pub crop_max: [usize; 3],
+    /// Dentin voxels outside the main dentin body, given to the enamel.
+    pub dentin_specks_relabelled: usize,
     pub calibration: Calibration,
     pub tissues: Vec<TissueVolume>,
     pub seconds: Timings,
@@ -108,7 +110,8 @@ impl ScanToTissues {
         let clock = Instant::now();
         let region = tooth_box(&labels, self.fdi, None, self.margin_mm).map_err(cbct)?;
         let tooth_scan = crop(scan, &region).map_err(cbct)?;
-        let tooth_labels = crop_labels(&labels, &region).map_err(cbct)?;
+        let mut tooth_labels = crop_labels(&labels, &region).map_err(cbct)?;
+        let specks = keep_largest_component(&mut tooth_labels, Label::Dentin, Label::Enamel);
         seconds.crop = clock.elapsed().as_secs_f64();
 
         let clock = Instant::now();
@@ -145,6 +148,7 @@ impl ScanToTissues {
             scan_spacing_mm: scan.spacing,
             crop_min: region.min,
             crop_max: region.max,
+            dentin_specks_relabelled: specks,
             calibration,
             tissues,
             seconds,
@@ -222,6 +226,55 @@ impl NestedBuilder<'_> {
         out.extend(caries.map(|g| (Caries, g)));
         Ok(out)
     }
+}
+
+/// Relabels every `label` voxel outside its largest 6-connected component as `replacement`;
+/// returns how many. A tooth's dentin is one body: other specks are partial-volume voxels where
+/// bright enamel meets dark air through dentin's grey range, and as dentin they would punch holes
+/// in the enamel.
+fn keep_largest_component(labels: &mut dentsim_cbct::LabelVolume, label: Label, replacement: Label) -> usize {
+    let [nx, ny, nz] = labels.dims;
+    let code = label as u8;
+    let mut component = vec![u32::MAX; labels.labels.len()];
+    let mut sizes: Vec<usize> = Vec::new();
+    let mut queue = std::collections::VecDeque::new();
+    for start in 0..labels.labels.len() {
+        if labels.labels[start] != code || component[start] != u32::MAX {
+            continue;
+        }
+        let id = sizes.len() as u32;
+        let mut size = 0;
+        component[start] = id;
+        queue.push_back(start);
+        while let Some(n) = queue.pop_front() {
+            size += 1;
+            let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
+            let neighbours = [
+                (i > 0).then(|| n - 1),
+                (i + 1 < nx).then(|| n + 1),
+                (j > 0).then(|| n - nx),
+                (j + 1 < ny).then(|| n + nx),
+                (k > 0).then(|| n - nx * ny),
+                (k + 1 < nz).then(|| n + nx * ny),
+            ];
+            for m in neighbours.into_iter().flatten() {
+                if labels.labels[m] == code && component[m] == u32::MAX {
+                    component[m] = id;
+                    queue.push_back(m);
+                }
+            }
+        }
+        sizes.push(size);
+    }
+    let Some(largest) = (0..sizes.len()).max_by_key(|&c| sizes[c]) else { return 0 };
+    let mut moved = 0;
+    for (l, c) in labels.labels.iter_mut().zip(&component) {
+        if *l == code && *c != largest as u32 {
+            *l = replacement as u8;
+            moved += 1;
+        }
+    }
+    moved
 }
 
 /// The world position of the scan's central voxel.

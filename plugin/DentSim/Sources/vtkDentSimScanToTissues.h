@@ -1,0 +1,40 @@
+// One tooth's tissue surfaces from a CBCT image (any vtkImageData with one scalar component,
+// e.g. from ParaView's DICOM, NIfTI or MetaImage readers): grey values are calibrated per scan,
+// the tooth is segmented and each tissue becomes a smooth level set at VoxelSize (mm). Output:
+// one block per tissue, named after it, in the image's world frame.
+#pragma once
+
+#include <vtkMultiBlockDataSetAlgorithm.h>
+
+#include "DentSimSourcesModule.h"
+
+class DENTSIMSOURCES_EXPORT vtkDentSimScanToTissues : public vtkMultiBlockDataSetAlgorithm {
+public:
+  static vtkDentSimScanToTissues* New();
+  vtkTypeMacro(vtkDentSimScanToTissues, vtkMultiBlockDataSetAlgorithm);
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+
+  vtkSetMacro(VoxelSize, double);
+  vtkGetMacro(VoxelSize, double);
+  vtkSetMacro(Tooth, int);
+  vtkGetMacro(Tooth, int);
+  vtkSetMacro(UseSeedPoint, bool);
+  vtkGetMacro(UseSeedPoint, bool);
+  vtkSetVector3Macro(SeedPoint, double);
+  vtkGetVector3Macro(SeedPoint, double);
+
+protected:
+  vtkDentSimScanToTissues();
+  ~vtkDentSimScanToTissues() override = default;
+  int FillInputPortInformation(int port, vtkInformation* info) override;
+  int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
+
+  double VoxelSize = 0.05;
+  int Tooth = 36;
+  bool UseSeedPoint = false;
+  double SeedPoint[3] = {0.0, 0.0, 0.0};
+
+private:
+  vtkDentSimScanToTissues(const vtkDentSimScanToTissues&) = delete;
+  void operator=(const vtkDentSimScanToTissues&) = delete;
+};
