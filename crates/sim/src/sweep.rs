@@ -102,15 +102,18 @@ impl Sweep {
             let z = f64::from(k) * voxel;
             for j in lo.y..=hi.y {
                 let y = f64::from(j) * voxel;
-                // The x-range where some sub-pose's bounding ball (grown by the cut-off) reaches.
+                // The x-range where the head's bounding balls (grown by the cut-off) can reach,
+                // swept along the centre path (segments between consecutive centres).
                 let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                for c in &self.centres {
-                    let d2 = (c.y - y).powi(2) + (c.z - z).powi(2);
-                    let r2 = reach * reach - d2;
-                    if r2 > 0.0 {
-                        let half = r2.sqrt();
-                        x_lo = x_lo.min(c.x - half);
-                        x_hi = x_hi.max(c.x + half);
+                let segments = self.centres.len().saturating_sub(1).max(1);
+                for s in 0..segments {
+                    let a = self.centres[s];
+                    let b = self.centres[(s + 1).min(self.centres.len() - 1)];
+                    let d = segment_distance_2d((y, z), (a.y, a.z), (b.y, b.z));
+                    if d < reach {
+                        let half = (reach * reach - d * d).sqrt();
+                        x_lo = x_lo.min(a.x.min(b.x) - half);
+                        x_hi = x_hi.max(a.x.max(b.x) + half);
                     }
                 }
                 if x_lo > x_hi {
@@ -146,6 +149,15 @@ impl Sweep {
         }
         Ok(())
     }
+}
+
+/// Distance in the (y, z) plane from a point to a segment: a lower bound on the 3-D distance
+/// from any point of the row through it.
+fn segment_distance_2d(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
+    let (abx, aby) = (b.0 - a.0, b.1 - a.1);
+    let len2 = abx * abx + aby * aby;
+    let t = if len2 > 0.0 { (((p.0 - a.0) * abx + (p.1 - a.1) * aby) / len2).clamp(0.0, 1.0) } else { 0.0 };
+    (p.0 - a.0 - abx * t).hypot(p.1 - a.1 - aby * t)
 }
 
 #[inline]

@@ -58,7 +58,7 @@ impl Piece {
         let mid_dir = {
             let (s, e) = if ccw { (a - centre, b - centre) } else { (b - centre, a - centre) };
             let m = s + e;
-            if m.length_squared() > 1e-24 { m } else { -s.perp() }
+            if m.length_squared() > 1e-24 { m } else { s.perp() }
         };
         let chord = b - a;
         let side_p = chord.perp_dot(p - a);
@@ -100,15 +100,17 @@ impl Profile {
     /// Exact signed distance (negative inside) of the point at radius `rho` ≥ 0 and height `z`.
     pub fn sdf(&self, rho: f64, z: f64) -> f64 {
         let p = DVec2::new(rho, z);
+        // The sign test looks from just off the axis, so chords lying on the axis stay outside it.
+        let q = DVec2::new(rho.max(1e-9), z);
         let mut d = f64::INFINITY;
         let mut inside = false;
         for piece in &self.pieces {
             d = d.min(piece.distance(p));
-            inside ^= crosses(piece.start(), piece.end(), p) ^ piece.in_segment(p);
+            inside ^= crosses(piece.start(), piece.end(), q) ^ piece.in_segment(q);
         }
         // The axis closes the chain (from the last end back to the first start).
         if let (Some(first), Some(last)) = (self.pieces.first(), self.pieces.last()) {
-            inside ^= crosses(last.end(), first.start(), p);
+            inside ^= crosses(last.end(), first.start(), q);
         }
         if inside { -d } else { d }
     }
@@ -170,7 +172,7 @@ mod tests {
         }]);
         for (rho, z) in [(0.0, 1.0), (0.3, 0.2), (2.0, 1.0), (0.1, 2.5), (0.0, -1.0), (0.7, 1.9)] {
             let exact = (DVec2::new(rho, z) - c).length() - 1.0;
-            assert!((ball.sdf(rho, z) - exact).abs() < 1e-12, "{rho} {z}");
+            assert!((ball.sdf(rho, z) - exact).abs() < 1e-12, "{rho} {z}: {} vs {exact}", ball.sdf(rho, z));
         }
     }
 }

@@ -92,7 +92,11 @@ fn sizes_follow_the_spec() {
         assert!((profile.z_min).abs() < 1e-9 || burr.shape == Shape::Flame, "{:?}: tip at the origin", burr.shape);
         assert!(burr.sdf(DVec3::ZERO).abs() < 1e-9, "{:?}: the tip is on the surface", burr.shape);
         assert!(burr.sdf(DVec3::new(0.0, 0.0, -0.01)) > 0.0);
-        assert!(burr.bounding_radius() >= profile.max_radius.hypot(profile.z_max) - 1e-9);
+        let (cz, rb) = burr.bound();
+        for q in polygon(&profile) {
+            assert!(q.length() <= burr.bounding_radius() + 1e-9, "{:?}: {q} outside the bounding radius", burr.shape);
+            assert!((q - DVec2::new(0.0, cz)).length() <= rb + 1e-9, "{:?}: {q} outside the bound", burr.shape);
+        }
     }
 }
 
