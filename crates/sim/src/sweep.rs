@@ -21,6 +21,8 @@ use crate::error::{invalid, Result};
 pub const GAP_VOXELS: f64 = 0.25;
 /// A stroke longer than this many sub-steps is refused (a teleport, not a motion).
 pub const MAX_SUBSTEPS: usize = 20_000;
+/// A stroke whose patch would exceed this many voxels (64 MiB of f32) is refused: split it.
+pub const MAX_PATCH_VOXELS: usize = 16 << 20;
 
 /// Reusable buffers for building swept patches; allocation-free once warmed up.
 #[derive(Default)]
@@ -94,6 +96,9 @@ impl Sweep {
         patch.index_min = lo;
         patch.dims = dims.to_array();
         let total = dims.x as usize * dims.y as usize * dims.z as usize;
+        if total > MAX_PATCH_VOXELS {
+            return Err(invalid("stroke", format!("would touch {total} voxels (> {MAX_PATCH_VOXELS}); the poses are too far apart, split the stroke")));
+        }
         patch.values.clear();
         patch.values.resize(total, cutoff as f32);
         let ball = burr.ball_radius();
