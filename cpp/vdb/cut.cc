@@ -38,6 +38,7 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
                                 " values, its dimensions need " + std::to_string(expected));
   if (!std::isfinite(offset)) throw std::invalid_argument("tool offset is not finite");
   auto& grid = *impl.grid;
+  const float* tp = tool.data();  // rust::Slice indexing calls out of line per element
   const float bg = grid.background();
   const double h = grid.voxelSize()[0];
   const double eps = 1.5 * h;
@@ -52,64 +53,118 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   openvdb::tree::ValueAccessor<FloatTree, false> acc(grid.tree());
   CutStats stats{0, 0.0};
   const Box box{index_min, dims};
-  // Pass 1: old values of every voxel that may change or neighbours one that does; apply the cut.
-  size_t n = 0;
-  for (uint32_t k = 0; k < dims[2]; ++k)
-    for (uint32_t j = 0; j < dims[1]; ++j)
-      for (uint32_t i = 0; i < dims[0]; ++i, ++n) {
-        const float t = tool[n] + offset;
-        if (!(t < reach)) {
-          before[n] = after[n] = unknown;
-          continue;
-        }
-        const Coord c(index_min[0] + int32_t(i), index_min[1] + int32_t(j), index_min[2] + int32_t(k));
-        const float old = acc.getValue(c);
-        before[n] = after[n] = old;
-        if (!(t < bg)) continue;
-        const float cut = -t;
-        if (!(cut > old)) continue;
-        const float now = cut < bg ? cut : bg;
-        if (cut < bg) {
-          acc.setValueOn(c, cut);
-        } else {
-          acc.setValueOff(c, bg);
-        }
-        after[n] = now;
-        stats.changed_voxels += 1;
-        stats.removed_volume += inside_fraction(old, eps) - inside_fraction(now, eps);
-        if (log) log->push_back(VoxelChange{c.x(), c.y(), c.z(), old});
-      }
-  if (stats.changed_voxels == 0) return stats;
-  // Pass 2: the curvature term changes wherever a voxel or one of its six neighbours changed.
-  auto value = [&](const std::vector<float>& arr, int i, int j, int k) -> float {
-    if (box.contains(i, j, k)) {
-      const float v = arr[box.index(i, j, k)];
-      if (v == v) return v;
-    }
-    return acc.getValue(Coord(index_min[0] + i, index_min[1] + j, index_min[2] + k));
+  using Leaf = FloatTree::LeafNodeType;
+  constexpr int L = int(Leaf::DIM);
+  auto floor_to_leaf = [](int v) { return v & ~(L - 1); };
+  const int hi[3] = {index_min[0] + int(dims[0]) - 1, index_min[1] + int(dims[1]) - 1,
+                     index_min[2] + int(dims[2]) - 1};
+  // Pass 1, leaf block by leaf block: blocks in an outside tile cannot change and are skipped
+  // after one probe (their voxels are left unread: pass 2 never needs them, see below); voxels in
+  // a leaf are read directly from it.
+  auto& changed = impl.scratch_changed;
+  changed.clear();
+  auto& blocks = impl.scratch_blocks;  // 1 = the block was read, per leaf block of the box
+  const int nb_x = (hi[0] - floor_to_leaf(index_min[0])) / L + 1;
+  const int nb_y = (hi[1] - floor_to_leaf(index_min[1])) / L + 1;
+  const int nb_z = (hi[2] - floor_to_leaf(index_min[2])) / L + 1;
+  if (blocks.size() < size_t(nb_x) * nb_y * nb_z) blocks.resize(size_t(nb_x) * nb_y * nb_z);
+  const int fx = floor_to_leaf(index_min[0]), fy = floor_to_leaf(index_min[1]),
+            fz = floor_to_leaf(index_min[2]);
+  auto block_of = [&](int x, int y, int z) {  // x, y, z >= the floored box origin
+    return size_t(unsigned(x - fx) / L) +
+           size_t(nb_x) * (size_t(unsigned(y - fy) / L) + size_t(nb_y) * size_t(unsigned(z - fz) / L));
   };
-  static const int nb[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-  double correction = 0.0;
-  n = 0;
-  for (int k = 0; k < int(dims[2]); ++k)
-    for (int j = 0; j < int(dims[1]); ++j)
-      for (int i = 0; i < int(dims[0]); ++i, ++n) {
-        const float o = before[n], w = after[n];
-        if (!(o == o)) continue;
-        if (std::fabs(o) >= eps && std::fabs(w) >= eps) continue;
-        bool touched = o != w;
-        float so = 0.f, sw = 0.f;
-        for (const auto& d : nb) {
-          const float a = value(before, i + d[0], j + d[1], k + d[2]);
-          const float b = value(after, i + d[0], j + d[1], k + d[2]);
-          touched |= a != b;
-          so += a;
-          sw += b;
-        }
-        if (!touched) continue;
-        correction += curvature_term(o, (so - 6.f * o) / (h * h), eps) -
-                      curvature_term(w, (sw - 6.f * w) / (h * h), eps);
+  for (int bx = floor_to_leaf(index_min[0]); bx <= hi[0]; bx += L)
+    for (int by = floor_to_leaf(index_min[1]); by <= hi[1]; by += L)
+      for (int bz = floor_to_leaf(index_min[2]); bz <= hi[2]; bz += L) {
+        const Coord origin(bx, by, bz);
+        Leaf* leaf = acc.probeLeaf(origin);
+        const float tile = leaf ? 0.f : acc.getValue(origin);
+        const bool skip = !leaf && !(tile < bg);
+        blocks[block_of(bx, by, bz)] = skip ? 0 : 1;
+        if (skip) continue;
+        const int x0 = std::max(bx, index_min[0]), x1 = std::min(bx + L - 1, hi[0]);
+        const int y0 = std::max(by, index_min[1]), y1 = std::min(by + L - 1, hi[1]);
+        const int z0 = std::max(bz, index_min[2]), z1 = std::min(bz + L - 1, hi[2]);
+        for (int z = z0; z <= z1; ++z)
+          for (int y = y0; y <= y1; ++y) {
+            size_t n = box.index(x0 - index_min[0], y - index_min[1], z - index_min[2]);
+            for (int x = x0; x <= x1; ++x, ++n) {
+              const float t = tp[n] + offset;
+              if (!(t < reach)) {
+                before[n] = after[n] = unknown;
+                continue;
+              }
+              const Coord c(x, y, z);
+              const float old = leaf ? leaf->getValue(c) : tile;
+              before[n] = after[n] = old;
+              if (!(t < bg)) continue;
+              const float cut = -t;
+              const float now = cut < bg ? cut : bg;
+              if (!(now > old)) continue;
+              if (!leaf) leaf = acc.touchLeaf(origin);  // an inside tile becomes a leaf
+              if (cut < bg) {
+                leaf->setValueOn(c, cut);
+              } else {
+                leaf->setValueOff(c, bg);
+              }
+              after[n] = now;
+              changed.push_back(uint32_t(n));
+              stats.removed_volume += inside_fraction(old, eps) - inside_fraction(now, eps);
+              if (log) log->push_back(VoxelChange{c.x(), c.y(), c.z(), old});
+            }
+          }
       }
+  stats.changed_voxels = changed.size();
+  if (changed.empty()) return stats;
+  // Pass 2: the curvature term changes only at changed voxels and their six neighbours. Unread
+  // voxels (skipped outside blocks, or beyond the tool's reach) are unchanged; their value comes
+  // from the tree. The tool's cut-off margin keeps every changed voxel's neighbours in the box.
+  // Old and new value of a box voxel (box-relative i, j, k).
+  auto value = [&](int i, int j, int k, float& o, float& w) {
+    if (box.contains(i, j, k) &&
+        blocks[block_of(index_min[0] + i, index_min[1] + j, index_min[2] + k)]) {
+      const size_t m = box.index(i, j, k);
+      o = before[m];
+      if (o == o) {
+        w = after[m];
+        return;
+      }
+    }
+    o = w = acc.getValue(Coord(index_min[0] + i, index_min[1] + j, index_min[2] + k));
+  };
+  static const int nb[7][3] = {{0, 0, 0}, {1, 0, 0}, {-1, 0, 0}, {0, 1, 0},
+                               {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  auto& mark = impl.scratch_mark;  // all zero between calls
+  if (mark.size() < expected) mark.resize(expected, 0);
+  auto& visited = impl.scratch_visited;
+  visited.clear();
+  double correction = 0.0;
+  const int nx = int(dims[0]), nxy = int(dims[0] * dims[1]);
+  for (uint32_t c : changed) {
+    const int ci = int(c) % nx, cj = (int(c) / nx) % int(dims[1]), ck = int(c) / nxy;
+    for (const auto& d : nb) {
+      const int i = ci + d[0], j = cj + d[1], k = ck + d[2];
+      if (!box.contains(i, j, k)) continue;
+      const size_t m = box.index(i, j, k);
+      if (mark[m]) continue;
+      mark[m] = 1;
+      visited.push_back(uint32_t(m));
+      float o, w;
+      value(i, j, k, o, w);
+      if (std::fabs(o) >= eps && std::fabs(w) >= eps) continue;
+      float so = 0.f, sw = 0.f;
+      for (int q = 1; q < 7; ++q) {
+        float a, b;
+        value(i + nb[q][0], j + nb[q][1], k + nb[q][2], a, b);
+        so += a;
+        sw += b;
+      }
+      correction += curvature_term(o, (so - 6.f * o) / (h * h), eps) -
+                    curvature_term(w, (sw - 6.f * w) / (h * h), eps);
+    }
+  }
+  for (uint32_t m : visited) mark[m] = 0;
   stats.removed_volume = (stats.removed_volume - correction) * h * h * h;
   return stats;
 }
@@ -140,19 +195,23 @@ void LevelSet::removal_by_offset(std::array<int32_t, 3> index_min, std::array<ui
   float smallest = std::numeric_limits<float>::infinity();
   for (float o : offsets) smallest = std::min(smallest, o);
   for (auto& r : removed) r = 0.0;
+  const float* tp = tool.data();
+  const float* op = offsets.data();
+  const size_t n_off = offsets.size();
+  double* rp = removed.data();
   openvdb::tree::ValueAccessor<const FloatTree, false> acc(grid.tree());
   size_t n = 0;
   for (uint32_t k = 0; k < dims[2]; ++k)
     for (uint32_t j = 0; j < dims[1]; ++j)
       for (uint32_t i = 0; i < dims[0]; ++i, ++n) {
-        if (!(tool[n] + smallest < bg)) continue;
+        if (!(tp[n] + smallest < bg)) continue;
         const float old = acc.getValue(Coord(index_min[0] + int32_t(i), index_min[1] + int32_t(j),
                                              index_min[2] + int32_t(k)));
         const double before = inside_fraction(old, eps);
         if (before == 0.0) continue;
-        for (size_t m = 0; m < offsets.size(); ++m) {
-          const float cut = -(tool[n] + offsets[m]);
-          if (cut > old) removed[m] += before - inside_fraction(std::min(cut, bg), eps);
+        for (size_t m = 0; m < n_off; ++m) {
+          const float cut = -(tp[n] + op[m]);
+          if (cut > old) rp[m] += before - inside_fraction(std::min(cut, bg), eps);
         }
       }
   for (auto& r : removed) r *= h * h * h;

@@ -24,6 +24,8 @@ struct LevelSet::Impl {
   FloatGrid::Ptr grid;
   // Reused by local cuts (old and new values over the patch); never shrinks.
   std::vector<float> scratch_old, scratch_new;
+  std::vector<uint32_t> scratch_changed, scratch_visited;
+  std::vector<uint8_t> scratch_mark, scratch_blocks;
 };
 
 // Unregistered accessor: no allocation or locking on creation; valid while the grid is not
