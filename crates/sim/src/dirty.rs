@@ -8,15 +8,21 @@ use dentsim_vdb::LEAF_DIM;
 
 /// Dirty leaf origins per tissue (index into the model's tissues). Kept sorted and deduplicated
 /// lazily; the buffer's capacity is reused, so recording allocates nothing once warmed up.
-#[derive(Default, Debug)]
+#[derive(Debug)]
 pub struct DirtyLeaves {
     entries: Vec<(usize, IVec3)>,
-    compacted: usize,
+}
+
+impl Default for DirtyLeaves {
+    /// Room for 64 k entries (1.5 MiB), compacted long before it would have to grow.
+    fn default() -> Self {
+        DirtyLeaves::with_capacity(1 << 16)
+    }
 }
 
 impl DirtyLeaves {
     pub fn with_capacity(n: usize) -> Self {
-        DirtyLeaves { entries: Vec::with_capacity(n), compacted: 0 }
+        DirtyLeaves { entries: Vec::with_capacity(n) }
     }
 
     /// Records the chunks every change in `log` affects.
@@ -56,7 +62,6 @@ impl DirtyLeaves {
     fn compact(&mut self) {
         self.entries.sort_unstable_by_key(|(t, l)| (*t, l.x, l.y, l.z));
         self.entries.dedup();
-        self.compacted = self.entries.len();
     }
 
     pub fn is_empty(&self) -> bool {
@@ -67,6 +72,5 @@ impl DirtyLeaves {
     pub fn drain_into(&mut self, out: &mut Vec<(usize, IVec3)>) {
         self.compact();
         out.extend(self.entries.drain(..));
-        self.compacted = 0;
     }
 }

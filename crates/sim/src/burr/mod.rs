@@ -245,9 +245,12 @@ impl Burr {
         &self.shank
     }
 
-    /// Shorthand spec that rebuilds this burr.
+    /// A spec that rebuilds this burr: its ISO number when it has one, else the shorthand.
     pub fn spec(&self) -> String {
-        format!("{}:{}:{}", self.shape.name(), self.diameter_mm, self.length_mm)
+        match &self.iso {
+            Some(iso) => iso.to_string(),
+            None => format!("{}:{}:{}", self.shape.name(), self.diameter_mm, self.length_mm),
+        }
     }
 }
 
