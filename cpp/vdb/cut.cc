@@ -43,12 +43,9 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   const double h = grid.voxelSize()[0];
   const double eps = 1.5 * h;
   const float reach = bg + float(h) * 1.01f;
-  const float unknown = std::numeric_limits<float>::quiet_NaN();
   auto& before = impl.scratch_old;
-  auto& after = impl.scratch_new;
   if (before.size() < expected) {  // grows once to the largest patch, then reused
     before.resize(expected);
-    after.resize(expected);
   }
   openvdb::tree::ValueAccessor<FloatTree, false> acc(grid.tree());
   CutStats stats{0, 0.0};
@@ -91,13 +88,10 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
             size_t n = box.index(x0 - index_min[0], y - index_min[1], z - index_min[2]);
             for (int x = x0; x <= x1; ++x, ++n) {
               const float t = tp[n] + offset;
-              if (!(t < reach)) {
-                before[n] = after[n] = unknown;
-                continue;
-              }
+              if (!(t < reach)) continue;  // unread; pass 2 knows it from the tool
               const Coord c(x, y, z);
               const float old = leaf ? leaf->getValue(c) : tile;
-              before[n] = after[n] = old;
+              before[n] = old;
               if (!(t < bg)) continue;
               const float cut = -t;
               const float now = cut < bg ? cut : bg;
@@ -108,7 +102,6 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
               } else {
                 leaf->setValueOff(c, bg);
               }
-              after[n] = now;
               changed.push_back(uint32_t(n));
               stats.removed_volume += inside_fraction(old, eps) - inside_fraction(now, eps);
               if (log) log->push_back(VoxelChange{c.x(), c.y(), c.z(), old});
@@ -120,14 +113,17 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   // Pass 2: the curvature term changes only at changed voxels and their six neighbours. Unread
   // voxels (skipped outside blocks, or beyond the tool's reach) are unchanged; their value comes
   // from the tree. The tool's cut-off margin keeps every changed voxel's neighbours in the box.
-  // Old and new value of a box voxel (box-relative i, j, k).
+  // Old and new value of a box voxel (box-relative i, j, k). A voxel was read in pass 1 iff its
+  // block was read and the tool reached it; its new value follows from the tool again.
   auto value = [&](int i, int j, int k, float& o, float& w) {
     if (box.contains(i, j, k) &&
         blocks[block_of(index_min[0] + i, index_min[1] + j, index_min[2] + k)]) {
       const size_t m = box.index(i, j, k);
-      o = before[m];
-      if (o == o) {
-        w = after[m];
+      const float t = tp[m] + offset;
+      if (t < reach) {
+        o = before[m];
+        const float now = -t < bg ? -t : bg;
+        w = t < bg && now > o ? now : o;
         return;
       }
     }

@@ -22,8 +22,8 @@ void ensure_initialized();
 
 struct LevelSet::Impl {
   FloatGrid::Ptr grid;
-  // Reused by local cuts (old and new values over the patch); never shrinks.
-  std::vector<float> scratch_old, scratch_new;
+  // Reused by local cuts (old values over the patch, changed and visited voxels); never shrinks.
+  std::vector<float> scratch_old;
   std::vector<uint32_t> scratch_changed, scratch_visited;
   std::vector<uint8_t> scratch_mark, scratch_blocks;
 };
