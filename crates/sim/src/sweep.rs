@@ -183,7 +183,8 @@ fn segment_distance_2d(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
     let (abx, aby) = (b.0 - a.0, b.1 - a.1);
     let len2 = abx * abx + aby * aby;
     let t = if len2 > 0.0 { (((p.0 - a.0) * abx + (p.1 - a.1) * aby) / len2).clamp(0.0, 1.0) } else { 0.0 };
-    (p.0 - a.0 - abx * t).hypot(p.1 - a.1 - aby * t)
+    let (dx, dy) = (p.0 - a.0 - abx * t, p.1 - a.1 - aby * t);
+    (dx * dx + dy * dy).sqrt()
 }
 
 #[inline]

@@ -203,13 +203,13 @@ impl Burr {
     pub fn sdf(&self, p: DVec3) -> f64 {
         match &self.head {
             Head::Ball { radius } => (p - DVec3::new(0.0, 0.0, *radius)).length() - radius,
-            Head::Revolved(profile) => profile.sdf(p.x.hypot(p.y), p.z),
+            Head::Revolved(profile) => profile.sdf((p.x * p.x + p.y * p.y).sqrt(), p.z),
         }
     }
 
     /// Signed distance of a tool-frame point to the non-cutting neck and shank.
     pub fn shank_sdf(&self, p: DVec3) -> f64 {
-        self.shank.sdf(p.x.hypot(p.y), p.z)
+        self.shank.sdf((p.x * p.x + p.y * p.y).sqrt(), p.z)
     }
 
     /// The ball radius when the head is a ball (the swept cut then has a closed form).
