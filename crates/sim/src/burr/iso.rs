@@ -53,7 +53,7 @@ pub fn parse_iso(text: &str) -> Result<IsoNumber> {
     let groups: Vec<&str> = if compact.len() == 15 && compact.chars().all(|c| c.is_ascii_digit()) {
         (0..5).map(|i| &compact[3 * i..3 * i + 3]).collect()
     } else {
-        text.split(|c: char| matches!(c, ' ' | '.' | '-')).filter(|g| !g.is_empty()).collect()
+        text.split([' ', '.', '-']).filter(|g| !g.is_empty()).collect()
     };
     if groups.len() != 5 {
         return Err(invalid(what(), format!("has {} groups, expected 5 (material shank shape grit size)", groups.len())));
