@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "dentsim-vdb/src/sys.rs.h"
 #include "vdb/level_set.h"
@@ -21,6 +22,10 @@ void ensure_initialized();
 
 struct LevelSet::Impl {
   FloatGrid::Ptr grid;
+  // Reused by local cuts (old values over the patch, changed and visited voxels); never shrinks.
+  std::vector<float> scratch_old;
+  std::vector<uint32_t> scratch_changed, scratch_visited;
+  std::vector<uint8_t> scratch_mark, scratch_blocks;
 };
 
 // Unregistered accessor: no allocation or locking on creation; valid while the grid is not
@@ -46,6 +51,21 @@ inline double inside_fraction(float phi, double eps) {
   const double t = phi / eps;
   return 0.5 * (1.0 - t - std::sin(M_PI * t) / M_PI);
 }
+
+// Curvature term of the volume measure: the smoothed Heaviside overcounts a convex region by
+// m * (integral of mean curvature sum over the surface), m = eps^2 (1/6 - 1/pi^2); the discrete
+// Laplacian of a signed distance is that curvature, so subtracting m * delta_eps(phi) * Laplacian
+// per voxel removes the bias (to second order) for spheres, cylinders and any smooth surface.
+inline double curvature_term(float phi, double laplacian, double eps) {
+  if (!(std::fabs(phi) < eps)) return 0.0;
+  const double m = eps * eps * (1.0 / 6.0 - 1.0 / (M_PI * M_PI));
+  const double delta = 0.5 * (1.0 + std::cos(M_PI * phi / eps)) / eps;
+  return m * delta * laplacian;
+}
+
+CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
+                       std::array<uint32_t, 3> dims, rust::Slice<const float> tool, float offset,
+                       rust::Vec<VoxelChange>* log);
 
 // Trilinear value and gradient (world units) at an index-space point.
 template <typename Accessor>

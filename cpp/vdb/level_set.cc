@@ -96,7 +96,19 @@ double LevelSet::volume() const {
     const double f = inside_fraction(*it, eps);
     if (f > 0.0) sum += f * double(it.getVoxelCount());
   }
-  return sum * h * h * h;
+  // Curvature correction over the voxels near the surface (see curvature_term in impl.h).
+  openvdb::tree::ValueAccessor<const FloatTree, false> acc(impl->grid->tree());
+  double correction = 0.0;
+  for (auto it = impl->grid->cbeginValueOn(); it; ++it) {
+    const float phi = *it;
+    if (!(std::fabs(phi) < eps)) continue;
+    const Coord c = it.getCoord();
+    const float s = acc.getValue(c.offsetBy(1, 0, 0)) + acc.getValue(c.offsetBy(-1, 0, 0)) +
+                    acc.getValue(c.offsetBy(0, 1, 0)) + acc.getValue(c.offsetBy(0, -1, 0)) +
+                    acc.getValue(c.offsetBy(0, 0, 1)) + acc.getValue(c.offsetBy(0, 0, -1));
+    correction += curvature_term(phi, (s - 6.f * phi) / (h * h), eps);
+  }
+  return (sum - correction) * h * h * h;
 }
 
 static void require_same_transform(const FloatGrid& a, const FloatGrid& b, const char* op) {

@@ -14,6 +14,7 @@ namespace dentsim::vdb {
 
 struct MeshBuffers;
 struct CutStats;
+struct VoxelChange;
 
 class LevelSet {
 public:
@@ -67,6 +68,19 @@ public:
   void sample_values(rust::Slice<const float> xyz, rust::Slice<float> out) const;
   void sample_value_gradients(rust::Slice<const float> xyz, rust::Slice<float> out) const;
   uint64_t content_hash() const;
+
+  // Cutting with an undo log, rate limiting, journal replay, region reads (added for issue 4).
+  CutStats subtract_logged(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
+                           rust::Slice<const float> tool, float offset,
+                           rust::Vec<VoxelChange>& log);
+  void removal_by_offset(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
+                         rust::Slice<const float> tool, rust::Slice<const float> offsets,
+                         rust::Slice<double> removed) const;
+  void write_voxels(rust::Slice<const VoxelChange> changes);
+  void read_voxels(rust::Slice<VoxelChange> changes) const;
+  void read_dense(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
+                  rust::Slice<float> out) const;
+  rust::Vec<int32_t> leaf_origins() const;
 
   std::unique_ptr<Impl> impl;
 };

@@ -121,7 +121,9 @@ impl Root {
         let slope = 0.8 * self.w_top / (self.top.z - self.apex.z).abs();
         let q = DVec3::new(p.x, p.y - p.y.clamp(-w, w), p.z);
         let d = sd_round_cone(q, self.top, self.apex, (self.r_top - shrink_r).max(0.05), (self.r_apex - shrink_r).max(0.05));
-        d / (1.0 + slope * slope).sqrt() - grow
+        // q shears y by the z-varying width: the map's largest stretch is the spectral norm of
+        // [[1, slope], [0, 1]], (slope + sqrt(slope² + 4)) / 2, so dividing by it keeps |∇| ≤ 1.
+        d / ((slope + (slope * slope + 4.0).sqrt()) / 2.0) - grow
     }
 }
 

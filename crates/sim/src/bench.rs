@@ -12,6 +12,8 @@ use serde::Serialize;
 use crate::burr::Burr;
 use crate::contact::{BurrSamples, ContactQuery};
 use crate::cut::Cutter;
+use crate::mesher::Mesher;
+use crate::removal::Feed;
 use crate::error::Result;
 use crate::model::TissueModel;
 use crate::phantom::CapsuleTooth;
@@ -202,8 +204,13 @@ pub fn cut_stroke(model: &TissueModel, cfg: BenchConfig) -> Result<BenchRow> {
     let mut ours_model = model.clone();
     let mut cutter = Cutter::default();
     let mut failure = None;
+    // Warm the cutter's buffers (as the session does before its first tick), then time the
+    // allocation-free tick path.
+    if let Err(e) = cutter.cut_with(&mut ours_model.clone(), &burr, tip(0), tip(1), Feed::Geometric) {
+        failure.get_or_insert(e);
+    }
     let ours = Timings::measure(cfg.repetitions, 1, |i| {
-        if let Err(e) = cutter.cut(&mut ours_model, &burr, tip(i), tip(i + 1)) {
+        if let Err(e) = cutter.cut_with(&mut ours_model, &burr, tip(i), tip(i + 1), Feed::Geometric) {
             failure.get_or_insert(e);
         }
     });
@@ -317,6 +324,53 @@ fn peak_resident_bytes() -> u64 {
         .map_or(0, |kib| kib * 1024)
 }
 
+/// Re-meshing after one tick's stroke: our chunk mesher over the dirty leaves of every tissue vs
+/// a full `volumeToMesh` of every tissue (the peer).
+pub fn remesh_stroke(model: &TissueModel, cfg: BenchConfig) -> Result<BenchRow> {
+    let burr = Burr::round(1.0)?;
+    let top = CapsuleTooth::default().outer.top();
+    let tip = |i: usize| {
+        let s = i as f64 * 0.02;
+        DAffine3::from_translation(DVec3::new(-1.5 + s % 3.0, 0.0, top - 0.6 - 0.4 * (s / 3.0).floor()))
+    };
+    let mut ours_model = model.clone();
+    let mut mesher = Mesher::full(&ours_model)?;
+    let mut cutter = Cutter::default();
+    let mut dirty = Vec::new();
+    let mut failure = None;
+    let mut chunks = 0usize;
+    let mut samples = Vec::with_capacity(cfg.repetitions);
+    for i in 0..cfg.repetitions {
+        // The cut is not timed; only the re-mesh it causes.
+        if let Err(e) = cutter.cut_with(&mut ours_model, &burr, tip(i), tip(i + 1), Feed::Geometric) {
+            failure.get_or_insert(e);
+        }
+        dirty.clear();
+        cutter.take_dirty(&mut dirty);
+        let start = Instant::now();
+        match mesher.update(&ours_model, &dirty) {
+            Ok(n) => chunks += n,
+            Err(e) => {
+                failure.get_or_insert(e);
+            }
+        }
+        samples.push(start.elapsed().as_secs_f64() * 1e6);
+    }
+    let ours = Timings(samples);
+    let peer_reps = (cfg.repetitions / 20).max(3);
+    let mut triangles = 0u64;
+    let peer = Timings::measure(peer_reps, 1, |_| {
+        for t in &ours_model.tissues {
+            triangles += t.grid.peer_full_mesh();
+        }
+    });
+    std::hint::black_box((chunks, triangles));
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(BenchRow::new("remesh_stroke", &ours, "full volumeToMesh of every tissue", &peer)),
+    }
+}
+
 /// Every row, in a fixed order; `progress(row name)` is called before each.
 pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<BenchRow>> {
     progress("building the tooth");
@@ -327,6 +381,8 @@ pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<B
     rows.push(sdf_sample_random(&model, cfg));
     progress("cut_stroke");
     rows.push(cut_stroke(&model, cfg)?);
+    progress("remesh_stroke");
+    rows.push(remesh_stroke(&model, cfg)?);
     progress("force_query");
     rows.push(force_query(&model, 256, cfg.repetitions * 5)?);
     progress("loop_period");

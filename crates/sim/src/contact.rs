@@ -74,7 +74,7 @@ impl BurrSamples {
             normals.push(n);
             areas.push(rho * rho * solid_angle / dir.dot(n).max(0.2));
         }
-        Ok(BurrSamples { points, normals, areas, centre, burr: *burr })
+        Ok(BurrSamples { points, normals, areas, centre, burr: burr.clone() })
     }
 
     pub fn len(&self) -> usize {

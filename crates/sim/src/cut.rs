@@ -1,77 +1,167 @@
-//! Cutting a tissue model with a burr swept along a stroke.
-use dentsim_vdb::{DensePatch, LevelSet};
-use glam::{DAffine3, DVec3, IVec3};
+//! Cutting a tissue model with a burr swept from one pose to the next.
+//!
+//! Per tick: the swept head becomes a dense patch of signed distances ([`Sweep`]), and every
+//! tissue takes `max(value, -(tool + offset))` over it in place (`LevelSet::subtract_logged`),
+//! with offset 0 for geometric cuts and a partial depth when a removal rate limits the tick
+//! ([`crate::removal`]). The changed voxels' old values feed the undo journal ([`History`]) and
+//! the dirty-chunk set the mesher drains ([`DirtyLeaves`]). Once its buffers have grown to the
+//! largest stroke, [`Cutter::cut_with`] allocates nothing.
+use dentsim_vdb::VoxelChange;
+use glam::{DAffine3, IVec3};
 use serde::Serialize;
 
 use crate::burr::Burr;
-use crate::error::{invalid, Result};
+use crate::dirty::DirtyLeaves;
+use crate::error::Result;
+use crate::history::History;
 use crate::model::TissueModel;
+use crate::removal::{pick_offset, Feed, RemovalBank, MAX_BANKED_S, OFFSET_SAMPLES};
+use crate::sweep::Sweep;
 
 /// Volume each tissue lost to one stroke.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct StrokeReport {
     pub removed_mm3: Vec<(String, f64)>,
     pub changed_voxels: u64,
+    /// Poses the sweep was evaluated at, minus one.
+    pub substeps: usize,
+    /// True when a removal rate held some tissue back this tick.
+    pub rate_limited: bool,
 }
 
 impl StrokeReport {
     pub fn removed(&self, tissue: &str) -> f64 {
         self.removed_mm3.iter().find(|(n, _)| n == tissue).map_or(0.0, |(_, v)| *v)
     }
+
+    pub fn total_mm3(&self) -> f64 {
+        self.removed_mm3.iter().map(|(_, v)| v).sum()
+    }
+
+    /// Zeroes the figures, keeping the tissue names (and their allocations) when they match.
+    fn reset_for(&mut self, model: &TissueModel) {
+        let same = self.removed_mm3.len() == model.tissues.len()
+            && self.removed_mm3.iter().zip(&model.tissues).all(|((n, _), t)| *n == t.props.name);
+        if same {
+            self.removed_mm3.iter_mut().for_each(|(_, v)| *v = 0.0);
+        } else {
+            self.removed_mm3 = model.tissues.iter().map(|t| (t.props.name.clone(), 0.0)).collect();
+        }
+        self.changed_voxels = 0;
+        self.substeps = 0;
+        self.rate_limited = false;
+    }
 }
 
-/// Reuses its patch buffer from stroke to stroke.
+/// Reuses its buffers from stroke to stroke; owns the undo journal and the dirty set.
 #[derive(Default)]
 pub struct Cutter {
-    patch: DensePatch,
+    sweep: Sweep,
+    log: Vec<VoxelChange>,
+    report: StrokeReport,
+    bank: RemovalBank,
+    pub history: History,
+    pub dirty: DirtyLeaves,
 }
 
 impl Cutter {
-    /// Removes the burr's swept volume from `from` to `to` out of every tissue.
-    pub fn cut(&mut self, model: &mut TissueModel, burr: &Burr, from: DAffine3, to: DAffine3) -> Result<StrokeReport> {
-        for (which, pose) in [("start", from), ("end", to)] {
-            if !pose.is_finite() {
-                return Err(invalid(format!("stroke {which} pose"), "is not finite"));
-            }
-        }
-        let Some(first) = model.tissues.first() else {
-            return Ok(StrokeReport::default());
-        };
-        self.sweep_patch(&first.grid, burr, from, to);
-        let mut report = StrokeReport::default();
-        for t in &mut model.tissues {
-            let stats = t.grid.subtract(&self.patch)?;
-            report.removed_mm3.push((t.props.name.clone(), stats.removed_mm3));
-            report.changed_voxels += stats.changed_voxels;
-        }
-        Ok(report)
+    /// A cutter whose undo journal holds at most `history_bytes`.
+    pub fn with_history_bytes(history_bytes: usize) -> Self {
+        Cutter { history: History::with_bytes(history_bytes), ..Default::default() }
     }
 
-    /// Tool distances over the stroke's bounding box plus the narrow band.
-    fn sweep_patch(&mut self, grid: &LevelSet, burr: &Burr, from: DAffine3, to: DAffine3) {
-        let Burr::Round { diameter_mm } = *burr;
-        let r = diameter_mm / 2.0;
-        // A ball's swept volume along a straight stroke is the capsule between its centres.
-        let a = from.transform_point3(DVec3::new(0.0, 0.0, r));
-        let b = to.transform_point3(DVec3::new(0.0, 0.0, r));
-        let reach = r + f64::from(grid.background()) + grid.voxel_size();
-        let lo = grid.world_to_index(a.min(b) - reach);
-        let hi = grid.world_to_index(a.max(b) + reach);
-        let dims = (hi - lo + IVec3::ONE).as_uvec3();
-        let patch = &mut self.patch;
-        patch.index_min = lo;
-        patch.dims = dims.to_array();
-        patch.values.clear();
-        let ab = b - a;
-        let len2 = ab.length_squared().max(f64::MIN_POSITIVE);
-        for k in lo.z..=hi.z {
-            for j in lo.y..=hi.y {
-                for i in lo.x..=hi.x {
-                    let p = grid.index_to_world(IVec3::new(i, j, k));
-                    let t = ((p - a).dot(ab) / len2).clamp(0.0, 1.0);
-                    patch.values.push(((p - (a + ab * t)).length() - r) as f32);
-                }
+    /// Removes the burr's swept volume from `from` to `to` out of every tissue (geometric cut).
+    pub fn cut(&mut self, model: &mut TissueModel, burr: &Burr, from: DAffine3, to: DAffine3) -> Result<StrokeReport> {
+        self.cut_with(model, burr, from, to, Feed::Geometric)?;
+        Ok(self.report.clone())
+    }
+
+    /// The haptic tick: like [`cut`](Self::cut) under a [`Feed`], returning a borrowed report.
+    pub fn cut_with(&mut self, model: &mut TissueModel, burr: &Burr, from: DAffine3, to: DAffine3, feed: Feed) -> Result<&StrokeReport> {
+        feed.validate()?;
+        self.report.reset_for(model);
+        let Some(h) = model.voxel_size() else { return Ok(&self.report) };
+        let band = model.tissues.iter().map(|t| f64::from(t.grid.background())).fold(0.0, f64::max);
+        self.sweep.build(burr, from, to, h, band)?;
+        self.report.substeps = self.sweep.substeps;
+        let auto_stroke = !self.history.is_open();
+        self.history.begin_stroke();
+        let result = self.apply(model, h, feed);
+        if auto_stroke {
+            self.history.end_stroke();
+        }
+        result?;
+        Ok(&self.report)
+    }
+
+    fn apply(&mut self, model: &mut TissueModel, h: f64, feed: Feed) -> Result<()> {
+        let mut offsets = [0f32; OFFSET_SAMPLES];
+        let mut removed = [0f64; OFFSET_SAMPLES];
+        if feed != Feed::Geometric {
+            // Deep enough that the last offset shrinks the tool to nothing.
+            let deepest = self.sweep.patch.values.iter().fold(0f32, |m, v| m.min(*v));
+            let depth = -deepest + 1.5 * h as f32;
+            for (i, o) in offsets.iter_mut().enumerate() {
+                *o = depth * i as f32 / (OFFSET_SAMPLES - 1) as f32;
             }
         }
+        for (t, tissue) in model.tissues.iter_mut().enumerate() {
+            let mut offset = 0.0;
+            let budget = feed.budget(tissue.props.removal_rate_mm3_per_n_s);
+            if let (Some(b), Feed::Limited { dt_s, .. }) = (budget, feed) {
+                let cap = if dt_s > 0.0 { b / dt_s * MAX_BANKED_S } else { 0.0 };
+                let allowed = self.bank.earn(t, b, cap);
+                tissue.grid.removal_by_offset(&self.sweep.patch, &offsets, &mut removed)?;
+                offset = pick_offset(&offsets, &removed, allowed);
+                if offset > 0.0 {
+                    self.report.rate_limited = true;
+                }
+            }
+            self.log.clear();
+            let stats = tissue.grid.subtract_logged(&self.sweep.patch, offset, &mut self.log)?;
+            if let Some(b) = budget {
+                self.bank.spend(t, stats.removed_mm3, b);
+            }
+            self.dirty.record(t, &self.log);
+            self.history.record(t, &self.log);
+            self.report.removed_mm3[t].1 = stats.removed_mm3;
+            self.report.changed_voxels += stats.changed_voxels;
+        }
+        Ok(())
+    }
+
+    /// Groups the following cuts into one undoable stroke (e.g. while the pedal is down).
+    pub fn begin_stroke(&mut self) {
+        self.history.begin_stroke();
+    }
+
+    pub fn end_stroke(&mut self) {
+        self.history.end_stroke();
+    }
+
+    /// Takes back the last stroke; false when there is none. Its chunks become dirty.
+    pub fn undo(&mut self, model: &mut TissueModel) -> bool {
+        let dirty = &mut self.dirty;
+        self.history.undo(model, &mut |t, changes| dirty.record(t, changes))
+    }
+
+    pub fn redo(&mut self, model: &mut TissueModel) -> bool {
+        let dirty = &mut self.dirty;
+        self.history.redo(model, &mut |t, changes| dirty.record(t, changes))
+    }
+
+    /// Forgets banked removal allowance (e.g. when the burr leaves the tooth or the tool changes).
+    pub fn reset_removal(&mut self) {
+        self.bank.reset();
+    }
+
+    /// Moves the dirty (tissue index, leaf origin) pairs into `out` and clears them.
+    pub fn take_dirty(&mut self, out: &mut Vec<(usize, IVec3)>) {
+        self.dirty.drain_into(out);
+    }
+
+    /// The last tick's report.
+    pub fn last_report(&self) -> &StrokeReport {
+        &self.report
     }
 }

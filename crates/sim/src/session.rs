@@ -175,7 +175,7 @@ impl Session {
             None => None,
         };
         let mirror = options.mesher_hz.map(|hz| (mirror_of(&model), hz));
-        let burr = *core.burr();
+        let burr = core.burr().clone();
 
         let s = shared.clone();
         let n_tissues = names.len();

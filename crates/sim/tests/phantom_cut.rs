@@ -43,7 +43,8 @@ fn a_stroke_inside_enamel_removes_its_capsule() {
     let report = Cutter::default().cut(&mut model, &burr, tip(-0.5), tip(0.5)).unwrap();
     let exact = PI * r * r * 1.0 + 4.0 / 3.0 * PI * r.powi(3);
     let enamel = report.removed("enamel");
-    assert!((enamel / exact - 1.0).abs() < 0.03, "{enamel} vs {exact}");
+    println!("capsule stroke: removed {enamel:.5} mm³ vs exact {exact:.5} ({:+.3} %)", (enamel / exact - 1.0) * 100.0);
+    assert!((enamel / exact - 1.0).abs() < 0.01, "{enamel} vs {exact}");
     assert_eq!(report.removed("dentin"), 0.0);
     assert_eq!(report.removed("pulp"), 0.0);
     let mut reader = model.get("enamel").unwrap().grid.reader();

@@ -6,6 +6,7 @@ use glam::{DVec3, IVec3, Vec3};
 use crate::error::{openvdb, Error, Result};
 use crate::mesh::TriMesh;
 use crate::sys::ffi;
+pub use crate::sys::ffi::VoxelChange;
 use crate::LEAF_DIM;
 
 /// A narrow-band level set: `FloatGrid` of class level set, background = half width in mm.
@@ -214,7 +215,9 @@ impl LevelSet {
         ijk.as_dvec3() * self.voxel_size()
     }
 
-    /// Enclosed volume in mm³ (smoothed Heaviside over ±1.5 voxels, summed over the tree).
+    /// Enclosed volume in mm³: smoothed Heaviside over ±1.5 voxels summed over the tree, minus its
+    /// curvature bias (ε²(1/6 − 1/π²)·δ_ε(φ)·Δφ per voxel), which alone overcounts a 0.6 mm ball
+    /// by ~2.5 % at 0.05 mm voxels; with it the error is second order in h/R.
     pub fn volume(&self) -> f64 {
         self.inner.volume()
     }
@@ -232,6 +235,45 @@ impl LevelSet {
             .subtract_dense(patch.index_min.to_array(), patch.dims, &patch.values)
             .map_err(openvdb("subtract tool patch"))?;
         Ok(CutStats { changed_voxels: s.changed_voxels, removed_mm3: s.removed_volume })
+    }
+
+    /// [`subtract`](Self::subtract) with the tool grown by `-offset` (a positive offset shrinks it,
+    /// for partial-depth cuts), appending each changed voxel's old value to `log` (its capacity is
+    /// reused: no allocation once it is large enough).
+    pub fn subtract_logged(&mut self, patch: &DensePatch, offset: f32, log: &mut Vec<VoxelChange>) -> Result<CutStats> {
+        let s = self
+            .inner
+            .pin_mut()
+            .subtract_logged(patch.index_min.to_array(), patch.dims, &patch.values, offset, log)
+            .map_err(openvdb("subtract tool patch"))?;
+        Ok(CutStats { changed_voxels: s.changed_voxels, removed_mm3: s.removed_volume })
+    }
+
+    /// Dry run: the volume (mm³, smoothed Heaviside) each tool offset would remove; nothing changes.
+    pub fn removal_by_offset(&self, patch: &DensePatch, offsets: &[f32], removed: &mut [f64]) -> Result<()> {
+        self.inner
+            .removal_by_offset(patch.index_min.to_array(), patch.dims, &patch.values, offsets, removed)
+            .map_err(openvdb("removal by offset"))
+    }
+
+    /// Writes voxel values back (active inside the band, off at ±background outside it).
+    pub fn write_voxels(&mut self, changes: &[VoxelChange]) {
+        self.inner.pin_mut().write_voxels(changes);
+    }
+
+    /// Fills each entry's `value` with the grid's current value at its voxel.
+    pub fn read_voxels(&self, changes: &mut [VoxelChange]) {
+        self.inner.read_voxels(changes);
+    }
+
+    /// Values of an index box, x fastest, into `out` (length must be the box's voxel count).
+    pub fn read_dense(&self, index_min: IVec3, dims: [u32; 3], out: &mut [f32]) -> Result<()> {
+        self.inner.read_dense(index_min.to_array(), dims, out).map_err(openvdb("read dense box"))
+    }
+
+    /// Origins (voxel index) of every leaf node.
+    pub fn leaf_origins(&self) -> Vec<IVec3> {
+        self.inner.leaf_origins().chunks_exact(3).map(|c| IVec3::new(c[0], c[1], c[2])).collect()
     }
 
     /// OpenVDB's `csgDifference` (the other grid is copied, not emptied).

@@ -15,6 +15,15 @@ pub(crate) mod ffi {
         removed_volume: f64,
     }
 
+    /// One voxel's value (old value in an undo log, or the value to write back).
+    #[derive(Clone, Copy, Debug, Default, PartialEq)]
+    struct VoxelChange {
+        i: i32,
+        j: i32,
+        k: i32,
+        value: f32,
+    }
+
     unsafe extern "C++" {
         include!("vdb/level_set.h");
 
@@ -87,6 +96,27 @@ pub(crate) mod ffi {
         fn value(self: Pin<&mut Reader>, x: f64, y: f64, z: f64) -> f32;
         fn value_gradient(self: Pin<&mut Reader>, x: f64, y: f64, z: f64) -> [f32; 4];
         fn values(self: Pin<&mut Reader>, xyz: &[f32], out: &mut [f32]);
+
+        fn subtract_logged(
+            self: Pin<&mut LevelSet>,
+            index_min: [i32; 3],
+            dims: [u32; 3],
+            tool: &[f32],
+            offset: f32,
+            log: &mut Vec<VoxelChange>,
+        ) -> Result<CutStats>;
+        fn removal_by_offset(
+            self: &LevelSet,
+            index_min: [i32; 3],
+            dims: [u32; 3],
+            tool: &[f32],
+            offsets: &[f32],
+            removed: &mut [f64],
+        ) -> Result<()>;
+        fn write_voxels(self: Pin<&mut LevelSet>, changes: &[VoxelChange]);
+        fn read_voxels(self: &LevelSet, changes: &mut [VoxelChange]);
+        fn read_dense(self: &LevelSet, index_min: [i32; 3], dims: [u32; 3], out: &mut [f32]) -> Result<()>;
+        fn leaf_origins(self: &LevelSet) -> Vec<i32>;
 
         fn new_grid_list() -> UniquePtr<GridList>;
         fn read_file(path: &str) -> Result<UniquePtr<GridList>>;

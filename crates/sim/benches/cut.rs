@@ -1,0 +1,52 @@
+//! Criterion timings of one haptic tick's cut and of the re-mesh after it (no peer here; the
+//! peer comparison lives in `dentsim bench`, see `dentsim_sim::bench`).
+use criterion::{criterion_group, criterion_main, Criterion};
+use dentsim_sim::bench::bench_tooth;
+use dentsim_sim::burr::Burr;
+use dentsim_sim::cut::Cutter;
+use dentsim_sim::mesher::Mesher;
+use dentsim_sim::removal::Feed;
+use glam::{DAffine3, DVec3};
+
+fn tip(i: usize) -> DAffine3 {
+    let s = i as f64 * 0.02;
+    DAffine3::from_translation(DVec3::new(-1.5 + s % 3.0, 0.0, 5.0 - 0.6 - 0.4 * (s / 3.0).floor()))
+}
+
+fn ticks(c: &mut Criterion) {
+    let model = bench_tooth().unwrap();
+    for spec in ["round:1.0", "cylinder_round:1.0:3", "flame_016"] {
+        let burr = Burr::parse(spec).unwrap();
+        let mut m = model.clone();
+        let mut cutter = Cutter::default();
+        let mut i = 0;
+        c.bench_function(&format!("cut tick {spec}"), |b| {
+            b.iter(|| {
+                cutter.cut_with(&mut m, &burr, tip(i), tip(i + 1), Feed::Geometric).unwrap();
+                i += 1;
+            })
+        });
+    }
+    let burr = Burr::round(1.0).unwrap();
+    let mut m = model.clone();
+    let mut mesher = Mesher::full(&m).unwrap();
+    let mut cutter = Cutter::default();
+    let mut dirty = Vec::new();
+    let mut i = 0;
+    c.bench_function("cut tick + remesh round:1.0", |b| {
+        b.iter(|| {
+            cutter.cut_with(&mut m, &burr, tip(i), tip(i + 1), Feed::Geometric).unwrap();
+            dirty.clear();
+            cutter.take_dirty(&mut dirty);
+            mesher.update(&m, &dirty).unwrap();
+            i += 1;
+        })
+    });
+}
+
+criterion_group! {
+    name = benches;
+    config = Criterion::default().sample_size(30);
+    targets = ticks
+}
+criterion_main!(benches);

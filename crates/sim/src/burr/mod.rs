@@ -1,0 +1,341 @@
+//! Burr shapes as exact signed distance functions in the tool frame: tip at the origin, axis +Z
+//! toward the handpiece. Every head is a solid of revolution whose half-profile (lines and arcs in
+//! the (radial, z) plane) gives the exact distance; the shank and neck are a separate solid that
+//! never cuts (contact code may still test it).
+mod iso;
+pub mod profile;
+
+use glam::{DVec2, DVec3};
+use serde::{Deserialize, Serialize};
+
+pub use iso::{parse_iso, IsoNumber};
+use profile::{tangent_point, Piece, Profile};
+
+use crate::error::{invalid, Result};
+
+/// The head shapes of ISO 6360 we model.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Shape {
+    Round,
+    InvertedCone,
+    CylinderFlat,
+    CylinderRound,
+    TaperFlat,
+    TaperRound,
+    Flame,
+    Pear,
+    Wheel,
+    Needle,
+    Xmas,
+}
+
+impl Shape {
+    pub const ALL: [Shape; 11] = [
+        Shape::Round,
+        Shape::InvertedCone,
+        Shape::CylinderFlat,
+        Shape::CylinderRound,
+        Shape::TaperFlat,
+        Shape::TaperRound,
+        Shape::Flame,
+        Shape::Pear,
+        Shape::Wheel,
+        Shape::Needle,
+        Shape::Xmas,
+    ];
+
+    /// The name used in shorthand specs and the catalogue.
+    pub fn name(self) -> &'static str {
+        match self {
+            Shape::Round => "round",
+            Shape::InvertedCone => "inverted_cone",
+            Shape::CylinderFlat => "cylinder_flat",
+            Shape::CylinderRound => "cylinder_round",
+            Shape::TaperFlat => "taper_flat",
+            Shape::TaperRound => "taper_round",
+            Shape::Flame => "flame",
+            Shape::Pear => "pear",
+            Shape::Wheel => "wheel",
+            Shape::Needle => "needle",
+            Shape::Xmas => "xmas",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Shape> {
+        let n = name.trim().to_ascii_lowercase().replace(['-', ' '], "_");
+        let n = if n == "x_mas" || n == "christmas_tree" { "xmas".to_owned() } else { n };
+        Shape::ALL.into_iter().find(|s| s.name() == n)
+    }
+
+    /// Nominal head length (mm) when a spec gives only the diameter. These are typical catalogue
+    /// proportions, not figures from the standard.
+    pub fn default_length_mm(self, diameter_mm: f64) -> f64 {
+        match self {
+            Shape::Round => diameter_mm,
+            Shape::InvertedCone => diameter_mm,
+            Shape::CylinderFlat | Shape::CylinderRound => 4.0,
+            Shape::TaperFlat | Shape::TaperRound => 6.0,
+            Shape::Flame => 5.0,
+            Shape::Pear => 2.0 * diameter_mm,
+            Shape::Wheel => 0.4 * diameter_mm,
+            Shape::Needle => 8.0,
+            Shape::Xmas => 4.0,
+        }
+    }
+}
+
+/// Nominal cone half-angles and ratios. The standard fixes these per size in tables we do not
+/// have (REFERENCE.md "Burrs"); these are typical values, documented so nobody mistakes them.
+const INVERTED_CONE_HALF_ANGLE_DEG: f64 = 10.0;
+const TAPER_HALF_ANGLE_DEG: f64 = 2.0;
+const PEAR_TOP_RATIO: f64 = 0.75;
+const FLAME_WIDEST_AT: f64 = 0.6;
+const FLAME_TOP_RATIO: f64 = 0.35;
+const XMAS_CONE_FRACTION: f64 = 0.7;
+/// Neck: 2 mm long, at most 0.8 mm wide; FG shank 1.6 mm (REFERENCE.md "Burrs", shank 314).
+const NECK_LENGTH_MM: f64 = 2.0;
+const SHANK_LENGTH_MM: f64 = 17.0;
+pub const FG_SHANK_DIAMETER_MM: f64 = 1.6;
+
+#[derive(Clone, Debug, PartialEq)]
+enum Head {
+    /// Round burrs: the ball's own distance, the fastest exact case.
+    Ball { radius: f64 },
+    Revolved(Profile),
+}
+
+/// One burr: head shape and size, plus the non-cutting neck and shank.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Burr {
+    pub shape: Shape,
+    /// Largest head diameter (ISO size / 10).
+    pub diameter_mm: f64,
+    pub length_mm: f64,
+    pub shank_diameter_mm: f64,
+    /// The ISO number the burr was made from, when it was.
+    pub iso: Option<IsoNumber>,
+    head: Head,
+    shank: Profile,
+    bounding_radius: f64,
+}
+
+impl Burr {
+    pub fn round(diameter_mm: f64) -> Result<Self> {
+        Self::new(Shape::Round, diameter_mm, None)
+    }
+
+    /// A burr of `shape` with head diameter and length (mm; the shape's default length if none).
+    pub fn new(shape: Shape, diameter_mm: f64, length_mm: Option<f64>) -> Result<Self> {
+        Self::with_shank(shape, diameter_mm, length_mm, FG_SHANK_DIAMETER_MM)
+    }
+
+    pub fn with_shank(shape: Shape, diameter_mm: f64, length_mm: Option<f64>, shank_diameter_mm: f64) -> Result<Self> {
+        if !(diameter_mm.is_finite() && diameter_mm > 0.0 && diameter_mm <= 10.0) {
+            return Err(invalid("burr diameter", format!("{diameter_mm} mm, expected 0 < d <= 10 mm")));
+        }
+        let length = length_mm.unwrap_or_else(|| shape.default_length_mm(diameter_mm));
+        if !(length.is_finite() && length > 0.0 && length <= 25.0) {
+            return Err(invalid("burr length", format!("{length} mm, expected 0 < l <= 25 mm")));
+        }
+        if !(shank_diameter_mm.is_finite() && shank_diameter_mm > 0.0 && shank_diameter_mm <= 5.0) {
+            return Err(invalid("shank diameter", format!("{shank_diameter_mm} mm, expected 0 < d <= 5 mm")));
+        }
+        let r = diameter_mm / 2.0;
+        let head = head_profile(shape, r, length)?;
+        let (top, head_radius) = match &head {
+            Head::Ball { radius } => (2.0 * radius, *radius),
+            Head::Revolved(p) => (p.z_max, p.max_radius),
+        };
+        let bounding_radius = match &head {
+            Head::Ball { radius } => 2.0 * radius,
+            Head::Revolved(p) => p.max_radius.hypot(p.z_max.max(-p.z_min)),
+        };
+        // The neck starts halfway up the head (inside it) so the two solids join without a gap.
+        let neck = (0.5 * head_radius).min(0.4);
+        let (z0, z1) = (0.5 * top, top + NECK_LENGTH_MM);
+        let rs = shank_diameter_mm / 2.0;
+        let shank = Profile::new(lines(&[(0.0, z0), (neck, z0), (neck, z1), (rs, z1), (rs, z1 + SHANK_LENGTH_MM), (0.0, z1 + SHANK_LENGTH_MM)]));
+        Ok(Burr { shape, diameter_mm, length_mm: top, shank_diameter_mm, iso: None, head, shank, bounding_radius })
+    }
+
+    /// A burr from a spec: a catalogue name, an ISO number (`806 314 001 524 010`), or the
+    /// shorthand `SHAPE:DIAMETER_MM[:LENGTH_MM]` (`round:1.0`, `cylinder_flat:1.2:4`).
+    pub fn parse(spec: &str) -> Result<Self> {
+        let s = spec.trim();
+        if let Some(entry) = catalogue::Catalogue::builtin().get(s) {
+            return entry.burr();
+        }
+        if s.chars().next().is_some_and(|c| c.is_ascii_digit()) {
+            return Self::from_iso(&parse_iso(s)?);
+        }
+        let mut parts = s.split(':');
+        let shape_token = parts.next().unwrap_or("");
+        let shape = Shape::from_name(shape_token).ok_or_else(|| {
+            let known: Vec<_> = Shape::ALL.iter().map(|s| s.name()).collect();
+            invalid(format!("burr '{spec}'"), format!("shape '{shape_token}' is not known (known: {}; or an ISO number or catalogue name)", known.join(", ")))
+        })?;
+        let number = |field: &str, token: Option<&str>| -> Result<Option<f64>> {
+            match token {
+                None => Ok(None),
+                Some(t) => t.trim().parse::<f64>().map(Some).map_err(|_| {
+                    invalid(format!("burr '{spec}'"), format!("{field} '{t}' is not a number of mm"))
+                }),
+            }
+        };
+        let diameter = number("diameter", parts.next())?
+            .ok_or_else(|| invalid(format!("burr '{spec}'"), "expected SHAPE:DIAMETER_MM[:LENGTH_MM]"))?;
+        let length = number("length", parts.next())?;
+        if let Some(extra) = parts.next() {
+            return Err(invalid(format!("burr '{spec}'"), format!("unexpected '{extra}' after the length")));
+        }
+        Self::new(shape, diameter, length).map_err(|e| invalid(format!("burr '{spec}'"), e.to_string()))
+    }
+
+    pub fn from_iso(iso: &IsoNumber) -> Result<Self> {
+        let mut burr = Self::with_shank(iso.shape, iso.diameter_mm(), None, iso.shank_diameter_mm())?;
+        burr.iso = Some(*iso);
+        Ok(burr)
+    }
+
+    /// Signed distance (mm) of a tool-frame point to the cutting head.
+    #[inline]
+    pub fn sdf(&self, p: DVec3) -> f64 {
+        match &self.head {
+            Head::Ball { radius } => (p - DVec3::new(0.0, 0.0, *radius)).length() - radius,
+            Head::Revolved(profile) => profile.sdf((p.x * p.x + p.y * p.y).sqrt(), p.z),
+        }
+    }
+
+    /// Signed distance of a tool-frame point to the non-cutting neck and shank.
+    pub fn shank_sdf(&self, p: DVec3) -> f64 {
+        self.shank.sdf((p.x * p.x + p.y * p.y).sqrt(), p.z)
+    }
+
+    /// The ball radius when the head is a ball (the swept cut then has a closed form).
+    pub fn ball_radius(&self) -> Option<f64> {
+        match self.head {
+            Head::Ball { radius } => Some(radius),
+            Head::Revolved(_) => None,
+        }
+    }
+
+    /// The head's bounding ball as (centre height on the axis, radius), tool frame.
+    pub fn bound(&self) -> (f64, f64) {
+        match &self.head {
+            Head::Ball { radius } => (*radius, *radius),
+            Head::Revolved(p) => ((p.z_min + p.z_max) / 2.0, p.max_radius.hypot((p.z_max - p.z_min) / 2.0)),
+        }
+    }
+
+    /// Radius of a ball about the tool origin that holds the cutting head.
+    pub fn bounding_radius(&self) -> f64 {
+        self.bounding_radius
+    }
+
+    /// The head's half-profile (lines and arcs in (radial, z)); a ball gives its half circle.
+    pub fn head_profile(&self) -> Profile {
+        match &self.head {
+            Head::Ball { radius } => ball_profile(*radius),
+            Head::Revolved(p) => p.clone(),
+        }
+    }
+
+    pub fn shank_profile(&self) -> &Profile {
+        &self.shank
+    }
+
+    /// A spec that rebuilds this burr: its ISO number when it has one, else the shorthand.
+    pub fn spec(&self) -> String {
+        match &self.iso {
+            Some(iso) => iso.to_string(),
+            None => format!("{}:{}:{}", self.shape.name(), self.diameter_mm, self.length_mm),
+        }
+    }
+}
+
+fn lines(points: &[(f64, f64)]) -> Vec<Piece> {
+    points
+        .windows(2)
+        .map(|w| Piece::Line { a: DVec2::new(w[0].0, w[0].1), b: DVec2::new(w[1].0, w[1].1) })
+        .collect()
+}
+
+fn ball_profile(r: f64) -> Profile {
+    Profile::new(vec![Piece::Arc {
+        centre: DVec2::new(0.0, r),
+        radius: r,
+        a: DVec2::new(0.0, 0.0),
+        b: DVec2::new(0.0, 2.0 * r),
+        ccw: true,
+    }])
+}
+
+/// The head of each shape with largest radius `r` and length `l`.
+fn head_profile(shape: Shape, r: f64, l: f64) -> Result<Head> {
+    let shape_err = |why: &str| invalid(format!("burr {}", shape.name()), format!("diameter {} mm, length {l} mm: {why}", 2.0 * r));
+    let tan = |deg: f64| deg.to_radians().tan();
+    let pieces = match shape {
+        Shape::Round => return Ok(Head::Ball { radius: r }),
+        Shape::CylinderFlat | Shape::Wheel => lines(&[(0.0, 0.0), (r, 0.0), (r, l), (0.0, l)]),
+        Shape::InvertedCone => {
+            let top = r - l * tan(INVERTED_CONE_HALF_ANGLE_DEG);
+            if top < 0.1 * r {
+                return Err(shape_err("too long for its cone angle"));
+            }
+            lines(&[(0.0, 0.0), (r, 0.0), (top, l), (0.0, l)])
+        }
+        Shape::TaperFlat => {
+            let tip = r - l * tan(TAPER_HALF_ANGLE_DEG);
+            if tip < 0.1 * r {
+                return Err(shape_err("too long for its taper"));
+            }
+            lines(&[(0.0, 0.0), (tip, 0.0), (r, l), (0.0, l)])
+        }
+        Shape::Needle => lines(&[(0.0, 0.0), (r, l), (0.0, l)]),
+        Shape::Xmas => {
+            let zc = XMAS_CONE_FRACTION * l;
+            lines(&[(0.0, 0.0), (r, zc), (r, l), (0.0, l)])
+        }
+        Shape::CylinderRound => {
+            if l <= r {
+                return Err(shape_err("a round end needs a length above the radius"));
+            }
+            let mut p = vec![Piece::Arc { centre: DVec2::new(0.0, r), radius: r, a: DVec2::ZERO, b: DVec2::new(r, r), ccw: true }];
+            p.extend(lines(&[(r, r), (r, l), (0.0, l)]));
+            p
+        }
+        Shape::TaperRound | Shape::Pear => {
+            // A ball on the tip, a straight flank tangent to it up to the top rim.
+            let (a, top) = if shape == Shape::Pear {
+                (r, PEAR_TOP_RATIO * r)
+            } else {
+                ((r - l * tan(TAPER_HALF_ANGLE_DEG)).max(0.1 * r), r)
+            };
+            let centre = DVec2::new(0.0, a);
+            let rim = DVec2::new(top, l);
+            let t = tangent_point(centre, a, rim).ok_or_else(|| shape_err("too short for its round end"))?;
+            if t.y >= l || t.x <= 0.0 {
+                return Err(shape_err("too short for its round end"));
+            }
+            let mut p = vec![Piece::Arc { centre, radius: a, a: DVec2::ZERO, b: t, ccw: true }];
+            p.extend(lines(&[(t.x, t.y), (top, l), (0.0, l)]));
+            p
+        }
+        Shape::Flame => {
+            // An ogive from the pointed tip to the widest circle, then a straight neck taper.
+            let zm = FLAME_WIDEST_AT * l;
+            let big = (r * r + zm * zm) / (2.0 * r);
+            let centre = DVec2::new(r - big, zm);
+            let mut p = vec![Piece::Arc { centre, radius: big, a: DVec2::ZERO, b: DVec2::new(r, zm), ccw: true }];
+            p.extend(lines(&[(r, zm), (FLAME_TOP_RATIO * r, l), (0.0, l)]));
+            p
+        }
+    };
+    Ok(Head::Revolved(Profile::new(pieces)))
+}
+
+pub mod catalogue;
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,154 @@
+//! Burr distances against brute force over a densely sampled profile, and spec parsing.
+use glam::{DVec2, DVec3};
+
+use super::profile::{Piece, Profile};
+use super::*;
+
+/// The profile as a fine closed polygon (including the axis), sampled independently of the
+/// exact distance code.
+fn polygon(profile: &Profile) -> Vec<DVec2> {
+    let mut pts = Vec::new();
+    for piece in &profile.pieces {
+        let n = 4000;
+        for i in 0..n {
+            let t = i as f64 / n as f64;
+            pts.push(match *piece {
+                Piece::Line { a, b } => a + (b - a) * t,
+                Piece::Arc { centre, radius, a, b, ccw } => {
+                    let (sa, sb) = ((a - centre).to_angle(), (b - centre).to_angle());
+                    let mut span = sb - sa;
+                    if ccw && span < 0.0 { span += std::f64::consts::TAU; }
+                    if !ccw && span > 0.0 { span -= std::f64::consts::TAU; }
+                    centre + DVec2::from_angle(sa + span * t) * radius
+                }
+            });
+        }
+    }
+    pts.push(profile.pieces.last().unwrap().end());
+    pts
+}
+
+fn brute(poly: &[DVec2], p: DVec2) -> f64 {
+    let mut d = f64::INFINITY;
+    // The surface: every polygon edge except the closing one along the axis.
+    for w in poly.windows(2) {
+        let (a, b) = (w[0], w[1]);
+        let ab = b - a;
+        let t = ((p - a).dot(ab) / ab.length_squared().max(1e-300)).clamp(0.0, 1.0);
+        d = d.min((p - a - ab * t).length());
+    }
+    let mut inside = false;
+    let n = poly.len();
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[(i + 1) % n]);
+        if (a.y > p.y) != (b.y > p.y) && a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x) > p.x {
+            inside = !inside;
+        }
+    }
+    if inside { -d } else { d }
+}
+
+fn every_burr() -> Vec<Burr> {
+    Shape::ALL.iter().map(|&s| Burr::new(s, if s == Shape::Wheel { 2.5 } else { 1.2 }, None).unwrap()).collect()
+}
+
+#[test]
+fn every_shape_is_exact_within_a_tenth_of_a_voxel_in_the_band() {
+    let voxel = 0.05;
+    let band = 3.0 * voxel;
+    for burr in every_burr() {
+        let profile = burr.head_profile();
+        let poly = polygon(&profile);
+        let mut worst: f64 = 0.0;
+        let mut checked = 0;
+        // A deterministic scatter over the head's bounding box plus the band.
+        for i in 0..20_000u32 {
+            let f = f64::from(i);
+            let u = (f * 0.618_034).fract();
+            let v = (f * 0.414_214 + 0.3).fract();
+            let phi = f * 2.399_963;
+            let rho = u * (profile.max_radius + 2.0 * band);
+            let z = profile.z_min - 2.0 * band + v * (profile.z_max - profile.z_min + 4.0 * band);
+            let p = DVec3::new(rho * phi.cos(), rho * phi.sin(), z);
+            let exact = brute(&poly, DVec2::new(rho, z));
+            if exact.abs() > band {
+                continue;
+            }
+            checked += 1;
+            worst = worst.max((burr.sdf(p) - exact).abs());
+        }
+        assert!(checked > 500, "{:?}: only {checked} band points", burr.shape);
+        assert!(worst <= 0.1 * voxel, "{:?}: error {worst} mm", burr.shape);
+        println!("{:>15} worst |sdf - brute| = {worst:.2e} mm over {checked} band points", burr.shape.name());
+    }
+}
+
+#[test]
+fn sizes_follow_the_spec() {
+    for burr in every_burr() {
+        let profile = burr.head_profile();
+        assert!((profile.max_radius - burr.diameter_mm / 2.0).abs() < 1e-9 || burr.shape == Shape::Flame,
+            "{:?}: widest {} vs {}", burr.shape, profile.max_radius, burr.diameter_mm / 2.0);
+        assert!((profile.z_min).abs() < 1e-9 || burr.shape == Shape::Flame, "{:?}: tip at the origin", burr.shape);
+        assert!(burr.sdf(DVec3::ZERO).abs() < 1e-9, "{:?}: the tip is on the surface", burr.shape);
+        assert!(burr.sdf(DVec3::new(0.0, 0.0, -0.01)) > 0.0);
+        let (cz, rb) = burr.bound();
+        for q in polygon(&profile) {
+            assert!(q.length() <= burr.bounding_radius() + 1e-9, "{:?}: {q} outside the bounding radius", burr.shape);
+            assert!((q - DVec2::new(0.0, cz)).length() <= rb + 1e-9, "{:?}: {q} outside the bound", burr.shape);
+        }
+    }
+}
+
+#[test]
+fn shank_does_not_cut_and_sits_above_the_tip() {
+    for burr in every_burr() {
+        let high = DVec3::new(0.0, 0.0, burr.length_mm + 5.0);
+        assert!(burr.shank_sdf(high) < 0.0, "{:?}", burr.shape);
+        assert!(burr.sdf(high) > 1.0, "{:?}: the head does not reach the shank", burr.shape);
+        assert!(burr.shank_sdf(DVec3::new(0.0, 0.0, -0.1)) > 0.0);
+    }
+}
+
+#[test]
+fn specs_parse_and_errors_name_the_token() {
+    let b = Burr::parse("round:1.0").unwrap();
+    assert_eq!((b.shape, b.diameter_mm), (Shape::Round, 1.0));
+    let b = Burr::parse("cylinder_flat:1.2:4").unwrap();
+    assert_eq!((b.shape, b.diameter_mm, b.length_mm), (Shape::CylinderFlat, 1.2, 4.0));
+    let b = Burr::parse("806 314 243 524 016").unwrap();
+    assert_eq!((b.shape, b.diameter_mm), (Shape::Flame, 1.6));
+    assert_eq!(b.iso.unwrap().to_string(), "806 314 243 524 016");
+    let b = Burr::parse("806314001524010").unwrap();
+    assert_eq!((b.shape, b.diameter_mm), (Shape::Round, 1.0));
+    let b = Burr::parse("806 204 010 524 012").unwrap();
+    assert_eq!((b.shape, b.shank_diameter_mm), (Shape::InvertedCone, 2.35));
+    assert_eq!(Burr::parse("flame_016").unwrap().shape, Shape::Flame);
+    for (spec, token) in [
+        ("806 314 999 524 016", "'999'"),
+        ("806 999 001 524 016", "'999'"),
+        ("123 314 001 524 016", "'123'"),
+        ("806 314 001 900 016", "'900'"),
+        ("806 314 001 524", "4 groups"),
+        ("806 314 001 524 0x6", "'0x6'"),
+        ("trapezoid:1.0", "'trapezoid'"),
+        ("round:abc", "'abc'"),
+        ("round:1.0:x", "'x'"),
+        ("round:-1", "-1"),
+        ("cylinder_round:1.2:0.3", "length"),
+        ("round", "DIAMETER"),
+    ] {
+        let e = Burr::parse(spec).unwrap_err().to_string();
+        assert!(e.contains(token), "{spec}: {e}");
+    }
+}
+
+#[test]
+fn builtin_catalogue_parses() {
+    let cat = catalogue::Catalogue::parse(include_str!("../../burrs.toml"), "burrs.toml").unwrap();
+    assert!(cat.burrs.len() >= 11);
+    let shapes: std::collections::HashSet<_> = cat.burrs.iter().map(|e| e.burr().unwrap().shape).collect();
+    assert_eq!(shapes.len(), Shape::ALL.len(), "every shape has a catalogue entry");
+    let e = catalogue::Catalogue::parse("[[burr]]\nname = \"x\"\nshape = \"round\"\n", "user.toml").unwrap_err().to_string();
+    assert!(e.contains("user.toml") && e.contains("'x'"), "{e}");
+}

@@ -1,0 +1,116 @@
+//! Planning: cut a whole tool path into a model (what `dentsim prepare` and the plugin's
+//! "Dental Preparation" filter call). Consecutive samples whose `cut` flag is set form strokes;
+//! each path segment is one swept cut, so fast or coarse paths never tunnel.
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+use crate::burr::Burr;
+use crate::cut::Cutter;
+use crate::error::Result;
+use crate::model::TissueModel;
+use crate::path::ToolPath;
+use crate::removal::Feed;
+
+/// How to cut along the path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrepareOptions {
+    /// `None`: the purely geometric cut (planning). `Some(force)`: rate-limited by the tissue
+    /// table at this applied force (N), with the path's `rpm` column (or `default_rpm`).
+    pub force_n: Option<f64>,
+    pub default_rpm: f64,
+}
+
+impl Default for PrepareOptions {
+    fn default() -> Self {
+        PrepareOptions { force_n: None, default_rpm: crate::removal::REFERENCE_RPM }
+    }
+}
+
+/// Figures of one stroke (a run of cutting samples).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StrokeSummary {
+    pub first_row: usize,
+    pub last_row: usize,
+    pub t_start_s: f64,
+    pub t_end_s: f64,
+    pub length_mm: f64,
+    pub removed_mm3: BTreeMap<String, f64>,
+    pub changed_voxels: u64,
+}
+
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct PrepareReport {
+    pub burr: String,
+    /// Tissue → volume removed over the whole path (mm³).
+    pub removed_mm3: BTreeMap<String, f64>,
+    pub strokes: Vec<StrokeSummary>,
+    pub segments: usize,
+    pub substeps: usize,
+}
+
+/// Cuts `path` into `model`; see [`prepare_with_progress`].
+pub fn prepare(model: &mut TissueModel, path: &ToolPath, burr: &Burr, options: &PrepareOptions) -> Result<PrepareReport> {
+    prepare_with_progress(model, path, burr, options, &mut |_| {})
+}
+
+/// Cuts `path` into `model`, calling `progress(fraction)` as it goes.
+pub fn prepare_with_progress(
+    model: &mut TissueModel,
+    path: &ToolPath,
+    burr: &Burr,
+    options: &PrepareOptions,
+    progress: &mut dyn FnMut(f64),
+) -> Result<PrepareReport> {
+    let mut cutter = Cutter::default();
+    let mut report = PrepareReport { burr: burr.spec(), ..Default::default() };
+    for t in &model.tissues {
+        report.removed_mm3.insert(t.props.name.clone(), 0.0);
+    }
+    let n = path.samples.len();
+    let mut open: Option<StrokeSummary> = None;
+    for (i, w) in path.samples.windows(2).enumerate() {
+        let (a, b) = (&w[0], &w[1]);
+        if !b.cut {
+            if let Some(s) = open.take() {
+                cutter.end_stroke();
+                report.strokes.push(s);
+            }
+            continue;
+        }
+        let stroke = open.get_or_insert_with(|| {
+            cutter.begin_stroke();
+            StrokeSummary {
+                first_row: i + 1,
+                last_row: i + 1,
+                t_start_s: a.t,
+                t_end_s: a.t,
+                length_mm: 0.0,
+                removed_mm3: model.tissues.iter().map(|t| (t.props.name.clone(), 0.0)).collect(),
+                changed_voxels: 0,
+            }
+        });
+        let feed = match options.force_n {
+            None => Feed::Geometric,
+            Some(force_n) => Feed::Limited { force_n, rpm: b.rpm.unwrap_or(options.default_rpm), dt_s: b.t - a.t },
+        };
+        let r = cutter.cut_with(model, burr, a.pose, b.pose, feed)?;
+        for (name, v) in &r.removed_mm3 {
+            *stroke.removed_mm3.entry(name.clone()).or_default() += v;
+            *report.removed_mm3.entry(name.clone()).or_default() += v;
+        }
+        stroke.changed_voxels += r.changed_voxels;
+        stroke.last_row = i + 2;
+        stroke.t_end_s = b.t;
+        stroke.length_mm += (b.pose.translation - a.pose.translation).length();
+        report.segments += 1;
+        report.substeps += r.substeps;
+        progress((i + 1) as f64 / (n - 1).max(1) as f64);
+    }
+    if let Some(s) = open.take() {
+        cutter.end_stroke();
+        report.strokes.push(s);
+    }
+    progress(1.0);
+    Ok(report)
+}
