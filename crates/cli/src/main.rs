@@ -2,6 +2,8 @@
 mod bench;
 mod demo;
 mod progress;
+mod replay;
+mod session;
 
 use clap::{Parser, Subcommand};
 
@@ -18,11 +20,17 @@ enum Command {
     Demo(demo::Args),
     /// Time dentsim beside its peer (plain OpenVDB and mesh-based ways) in the same run.
     Bench(bench::Args),
+    /// Run a headless haptic session; write the log, prepared tissues, meshes and summary.json.
+    Session(session::Args),
+    /// Replay a session log bit for bit; write tissues, meshes, forces.csv and forces.png.
+    Replay(replay::Args),
 }
 
 fn main() -> anyhow::Result<()> {
     match Cli::parse().command {
         Command::Demo(args) => demo::run(&args),
         Command::Bench(args) => bench::run(&args),
+        Command::Session(args) => session::run(&args),
+        Command::Replay(args) => replay::run(&args),
     }
 }

@@ -10,6 +10,7 @@ pub mod export;
 pub mod filter;
 pub mod force;
 pub mod haptics;
+pub mod headless;
 pub mod log;
 pub mod model;
 pub mod phantom;
