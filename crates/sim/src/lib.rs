@@ -11,6 +11,7 @@ pub mod filter;
 pub mod force;
 pub mod haptics;
 pub mod headless;
+pub mod live;
 pub mod log;
 pub mod model;
 pub mod phantom;
