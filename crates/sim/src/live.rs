@@ -62,6 +62,8 @@ pub struct LiveSession {
     generation: u64,
     burr_mesh: TriMesh,
     last: Option<TickRecord>,
+    /// Enclosed volume of each tissue's first mesh (mm³), to show what the session removed.
+    initial_volumes: Vec<f64>,
 }
 
 impl LiveSession {
@@ -84,7 +86,8 @@ impl LiveSession {
         let params = HapticParams { profile, filter, ..HapticParams::default() };
         let burr_mesh = burr_mesh(&Burr::round(params.burr_diameter_mm)?)?;
         let props = model.tissues.iter().map(|t| t.props.clone()).collect();
-        let meshes = model.tissues.iter().map(|t| Arc::new(t.grid.to_mesh())).collect();
+        let meshes: Vec<Arc<TriMesh>> = model.tissues.iter().map(|t| Arc::new(t.grid.to_mesh())).collect();
+        let initial_volumes = meshes.iter().map(|m| m.volume()).collect();
         let options = SessionOptions {
             params,
             realtime: req.realtime,
@@ -94,7 +97,7 @@ impl LiveSession {
             raise_priority: req.realtime,
         };
         let session = Session::start(model, device, options)?;
-        Ok(LiveSession { session: Some(session), props, meshes, generation: 1, burr_mesh, last: None })
+        Ok(LiveSession { session: Some(session), props, meshes, generation: 1, burr_mesh, last: None, initial_volumes })
     }
 
     /// The latest state; picks up new meshes. Never waits on the haptic thread; after the device
@@ -141,6 +144,11 @@ impl LiveSession {
     /// The latest surface of each tissue (model order).
     pub fn meshes(&self) -> &[Arc<TriMesh>] {
         &self.meshes
+    }
+
+    /// (before, now) enclosed volume of each tissue's surface (mm³, from the meshes).
+    pub fn volumes_mm3(&self) -> Vec<(f64, f64)> {
+        self.initial_volumes.iter().zip(&self.meshes).map(|(b, m)| (*b, m.volume())).collect()
     }
 
     /// The burr head at the proxy with the device's orientation (world), as a display draws it.
