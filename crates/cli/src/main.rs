@@ -5,6 +5,8 @@ mod demo;
 mod phantom;
 mod progress;
 mod segment;
+mod replay;
+mod session;
 
 use clap::{Parser, Subcommand};
 
@@ -25,6 +27,10 @@ enum Command {
     Phantom(phantom::Args),
     /// Time dentsim beside its peer (plain OpenVDB and mesh-based ways) in the same run.
     Bench(bench::Args),
+    /// Run a headless haptic session; write the log, prepared tissues, meshes and summary.json.
+    Session(session::Args),
+    /// Replay a session log bit for bit; write tissues, meshes, forces.csv and forces.png.
+    Replay(replay::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -33,5 +39,7 @@ fn main() -> anyhow::Result<()> {
         Command::Bench(args) => bench::run(&args),
         Command::Segment(args) => segment::run(&args),
         Command::Phantom(args) => phantom::run(&args),
+        Command::Session(args) => session::run(&args),
+        Command::Replay(args) => replay::run(&args),
     }
 }

@@ -6,11 +6,13 @@ mod error;
 mod hand;
 mod profile;
 mod scripted;
+mod spec;
 
 pub use error::{Error, Result};
 pub use hand::{SimulatedHand, HandParams};
 pub use profile::DeviceProfile;
 pub use scripted::{PathRow, ScriptedPath};
+pub use spec::{DeviceSpec, HAND_KEYS};
 
 use glam::{DAffine3, DVec3};
 

@@ -5,7 +5,9 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use dentsim_sim::model::Tissue;
 use dentsim_sim::preparation::PhantomStroke;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::live::{LiveRequest, LiveSession, LiveState};
+use dentsim_sim::tissue::{TissueProps, TissueTable};
+use dentsim_vdb::TriMesh;
 
 #[cxx::bridge(namespace = "dentsim::ffi")]
 mod bridge {
@@ -51,6 +53,48 @@ mod bridge {
         seed_mm: [f64; 3],
     }
 
+    /// How to start a live haptic session ("Dental Haptic Session").
+    struct SessionParams {
+        /// A .vdb of tissues; empty for the built-in capsule phantom.
+        tissues_path: String,
+        /// Voxel size of the phantom (mm) when no file is given.
+        phantom_voxel_mm: f64,
+        /// `scripted:PATH.csv` or `hand:KEY=VAL,...`.
+        device: String,
+        /// Device profile: touch, omni, desktop, premium15, falcon, omega.
+        profile: String,
+        /// Force filter: delta, biquad or none.
+        filter: String,
+        /// Tick on the wall clock; false runs ticks back to back (reproducible pictures).
+        realtime: bool,
+    }
+
+    /// The latest state of a live session.
+    struct SessionState {
+        tick: u64,
+        time_s: f64,
+        /// False once the device finished and the final tissues are meshed.
+        running: bool,
+        /// Where the burr is drawn (the proxy) and where the device is (mm).
+        burr_position_mm: [f64; 3],
+        device_position_mm: [f64; 3],
+        /// Force sent to the device (N).
+        force_n: [f64; 3],
+        /// Tissue in contact; empty for none.
+        contact_tissue: String,
+        /// Changes whenever a tissue surface changes.
+        mesh_generation: u64,
+    }
+
+    extern "Rust" {
+        type HapticSession;
+        fn default_session() -> SessionParams;
+        fn start_session(params: &SessionParams) -> Result<Box<HapticSession>>;
+        fn poll(self: &mut HapticSession) -> Result<SessionState>;
+        fn tissue_surfaces(self: &HapticSession) -> Result<Vec<TissueSurface>>;
+        fn burr_surface(self: &HapticSession) -> Result<TissueSurface>;
+    }
+
     extern "Rust" {
         fn default_stroke() -> StrokeParams;
         fn phantom_stroke(params: &StrokeParams) -> Result<Vec<TissueSurface>>;
@@ -60,7 +104,7 @@ mod bridge {
     }
 }
 
-pub use bridge::{ImageGeometry, SegmentParams, StrokeParams, TissueSurface};
+pub use bridge::{ImageGeometry, SegmentParams, SessionParams, SessionState, StrokeParams, TissueSurface};
 
 /// Runs `f`, turning a panic into an error so it never unwinds into C++.
 fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
@@ -150,8 +194,10 @@ fn unchanged_surfaces(model: &dentsim_sim::model::TissueModel) -> Vec<TissueSurf
 
 /// A tissue's mesh and properties with the volumes the caller measured.
 fn surface(t: &Tissue, volume_before_mm3: f64, volume_after_mm3: f64, removed_mm3: f64) -> TissueSurface {
-    let mesh = t.grid.to_mesh();
-    let p = &t.props;
+    mesh_surface(&t.props, &t.grid.to_mesh(), volume_before_mm3, volume_after_mm3, removed_mm3)
+}
+
+fn mesh_surface(p: &TissueProps, mesh: &TriMesh, volume_before_mm3: f64, volume_after_mm3: f64, removed_mm3: f64) -> TissueSurface {
     TissueSurface {
         name: p.name.clone(),
         label: p.label.into(),
@@ -166,6 +212,89 @@ fn surface(t: &Tissue, volume_before_mm3: f64, volume_after_mm3: f64, removed_mm
         points: mesh.points.iter().flat_map(|v| v.to_array()).collect(),
         normals: mesh.normals.iter().flat_map(|v| v.to_array()).collect(),
         triangles: mesh.triangles.iter().flatten().copied().collect(),
+    }
+}
+
+/// A live session behind an opaque box: the plugin polls it; dropping it stops the threads.
+pub struct HapticSession {
+    live: LiveSession,
+    last: LiveState,
+}
+
+fn default_session() -> SessionParams {
+    SessionParams {
+        tissues_path: String::new(),
+        phantom_voxel_mm: 0.05,
+        device: String::new(),
+        profile: "desktop".into(),
+        filter: "delta".into(),
+        realtime: true,
+    }
+}
+
+pub fn start_session(params: &SessionParams) -> Result<Box<HapticSession>, String> {
+    guarded("haptic session", || {
+        let request = LiveRequest {
+            tissues: (!params.tissues_path.is_empty()).then(|| params.tissues_path.clone().into()),
+            phantom_voxel_mm: params.phantom_voxel_mm,
+            device: params.device.clone(),
+            profile: params.profile.clone(),
+            filter: params.filter.clone(),
+            realtime: params.realtime,
+            mesher_hz: 30.0,
+        };
+        let live = LiveSession::start(&request).map_err(|e| e.to_string())?;
+        Ok(Box::new(HapticSession { live, last: LiveState::default() }))
+    })
+}
+
+impl HapticSession {
+    fn poll(&mut self) -> Result<SessionState, String> {
+        guarded("haptic session poll", || {
+            let s = self.live.poll().map_err(|e| e.to_string())?;
+            self.last = s.clone();
+            Ok(SessionState {
+                tick: s.tick,
+                time_s: s.t_s,
+                running: s.running,
+                burr_position_mm: s.proxy.to_array(),
+                device_position_mm: s.pose.translation.to_array(),
+                force_n: s.force.to_array(),
+                contact_tissue: s.tissue.unwrap_or_default(),
+                mesh_generation: s.mesh_generation,
+            })
+        })
+    }
+
+    fn tissue_surfaces(&self) -> Result<Vec<TissueSurface>, String> {
+        guarded("haptic session surfaces", || {
+            let volumes = self.live.volumes_mm3();
+            Ok(self
+                .live
+                .tissues()
+                .iter()
+                .zip(self.live.meshes())
+                .zip(volumes)
+                .map(|((p, m), (before, after))| mesh_surface(p, m, before, after, before - after))
+                .collect())
+        })
+    }
+
+    fn burr_surface(&self) -> Result<TissueSurface, String> {
+        guarded("haptic session burr", || {
+            let mesh = self.live.burr_at(&self.last);
+            let props = TissueProps {
+                name: "burr".into(),
+                label: 0,
+                colour: [0.75, 0.75, 0.8],
+                opacity: 1.0,
+                stiffness_n_per_mm: 0.0,
+                damping_n_s_per_mm: 0.0,
+                removal_rate_mm3_per_n_s: 0.0,
+            };
+            let v = mesh.volume();
+            Ok(mesh_surface(&props, &mesh, v, v, 0.0))
+        })
     }
 }
 
@@ -209,6 +338,32 @@ mod tests {
     fn reading_a_missing_file_names_it() {
         let err = read_tissues("/nonexistent/tissues.vdb").err().expect("refused");
         assert!(err.contains("/nonexistent/tissues.vdb"), "{err}");
+    }
+
+    #[test]
+    fn live_session_runs_and_reports_bad_devices() {
+        let err = start_session(&SessionParams { device: "hand:push=x".into(), ..default_session() }).err().expect("refused");
+        assert!(err.contains("field 'push'"), "{err}");
+        let params = SessionParams {
+            phantom_voxel_mm: 0.1,
+            device: "hand:start=0:0:5.8,target=0:0:4.0,duration=0.3".into(),
+            realtime: false,
+            ..default_session()
+        };
+        let mut s = start_session(&params).unwrap();
+        let mut state = s.poll().unwrap();
+        while state.running {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+            state = s.poll().unwrap();
+        }
+        assert_eq!(state.tick, 301);
+        assert_eq!(state.contact_tissue, "enamel");
+        assert!(state.force_n[2] > 0.1, "{:?}", state.force_n);
+        let names: Vec<String> = s.tissue_surfaces().unwrap().into_iter().map(|t| t.name).collect();
+        assert_eq!(names, ["enamel", "dentin", "pulp"]);
+        let burr = s.burr_surface().unwrap();
+        let top = burr.points.chunks(3).map(|p| f64::from(p[2])).fold(f64::MIN, f64::max);
+        assert!((top - (state.burr_position_mm[2] + 1.0)).abs() < 0.05, "{top}");
     }
 
     #[test]

@@ -236,7 +236,7 @@ pub fn force_query(model: &TissueModel, points: usize, iterations: usize) -> Res
     let burr = Burr::round(1.0)?;
     let samples = BurrSamples::new(&burr, points)?;
     let tool_points = samples.points.clone();
-    let mut query = ContactQuery::new(samples, model.tissues.len());
+    let mut query = ContactQuery::with_bounds(samples, model);
     let pose = DAffine3::from_translation(DVec3::new(0.3, 0.2, 4.9));
     let mut ours = Vec::with_capacity(iterations);
     let mut in_contact = 0;

@@ -3,7 +3,9 @@
 //! [`BurrSamples`] places area-weighted points on the burr's cutting head once per burr (star-shaped
 //! heads, rays from an interior centre). [`ContactQuery`] holds every per-tick buffer, so a query
 //! allocates nothing: one batched trilinear sampling call per tissue for all points, then value +
-//! gradient only for the points inside a tissue. Cost ≈ points × tissues × 25–50 ns.
+//! gradient only for the points inside a tissue. Cost ≈ points × tissues reached × 25–50 ns: a
+//! tissue whose active bounding box the burr's bounding sphere does not reach is not sampled
+//! (outside its band every value is the positive background, so no point can be in contact).
 use glam::{DAffine3, DVec3};
 
 use crate::burr::Burr;
@@ -161,12 +163,30 @@ pub struct ContactQuery {
     owner: Vec<u16>,
     contacts: Vec<ContactPoint>,
     tissues: usize,
+    /// World box of each tissue's active voxels, padded by a voxel for the trilinear stencil;
+    /// `None` = unknown, always sample. See [`ContactQuery::with_bounds`].
+    bounds: Vec<Option<(DVec3, DVec3)>>,
+    /// Radius around `samples.centre` that holds every sample point (tool frame, mm).
+    reach: f64,
+}
+
+/// World box (min, max) of a tissue's active voxels padded by one voxel; an empty grid gets an
+/// inverted box that nothing reaches.
+fn tissue_bounds(grid: &dentsim_vdb::LevelSet) -> (DVec3, DVec3) {
+    let h = grid.voxel_size();
+    match grid.index_bbox() {
+        Some(b) => (grid.index_to_world(b.min) - DVec3::splat(h), grid.index_to_world(b.max) + DVec3::splat(h)),
+        None => (DVec3::splat(f64::MAX), DVec3::splat(f64::MIN)),
+    }
 }
 
 impl ContactQuery {
     pub fn new(samples: BurrSamples, tissues: usize) -> Self {
         let n = samples.len();
+        let reach = samples.points.iter().map(|p| p.distance(samples.centre)).fold(0.0, f64::max);
         ContactQuery {
+            bounds: vec![None; tissues],
+            reach,
             xyz: vec![0.0; 3 * n],
             values: vec![0.0; n * tissues.max(1)],
             gather_xyz: vec![0.0; 3 * n],
@@ -176,6 +196,34 @@ impl ContactQuery {
             contacts: Vec::with_capacity(n),
             tissues,
             samples,
+        }
+    }
+
+    /// Like [`ContactQuery::new`], with each tissue's bounding box taken once so queries skip the
+    /// tissues the burr cannot reach. The boxes stay valid while tissues only lose material (cuts:
+    /// the new surface lies inside the old material, hence inside the old band's box); call
+    /// [`ContactQuery::refresh_bounds`] after anything else changes a grid.
+    pub fn with_bounds(samples: BurrSamples, model: &TissueModel) -> Self {
+        let mut q = Self::new(samples, model.tissues.len());
+        q.refresh_bounds(model);
+        q
+    }
+
+    /// Re-reads every tissue's bounding box (walks the trees: not for the haptic tick).
+    pub fn refresh_bounds(&mut self, model: &TissueModel) {
+        for (b, t) in self.bounds.iter_mut().zip(&model.tissues) {
+            *b = Some(tissue_bounds(&t.grid));
+        }
+    }
+
+    /// True if tissue `t` may hold a point within `margin` of the sphere (`centre`, `radius`).
+    fn may_reach(&self, t: usize, centre: DVec3, radius: f64) -> bool {
+        match self.bounds.get(t).copied().flatten() {
+            Some((lo, hi)) => {
+                let nearest = centre.clamp(lo.min(hi), hi.max(lo));
+                lo.cmple(hi).all() && nearest.distance_squared(centre) <= radius * radius
+            }
+            None => true,
         }
     }
 
@@ -192,8 +240,17 @@ impl ContactQuery {
             self.xyz[3 * i + 1] = w.y as f32;
             self.xyz[3 * i + 2] = w.z as f32;
         }
+        // Rotations keep distances, so the sample sphere maps to a sphere of the same radius.
+        let centre = pose.transform_point3(self.samples.centre);
+        let radius = self.reach + f64::from(threshold.max(0.0)) + 1e-6;
         for (t, tissue) in model.tissues.iter().take(tissues).enumerate() {
-            tissue.grid.sample_values(&self.xyz, &mut self.values[t * n..(t + 1) * n]);
+            let reach = self.may_reach(t, centre, radius);
+            let values = &mut self.values[t * n..(t + 1) * n];
+            if reach {
+                tissue.grid.sample_values(&self.xyz, values);
+            } else {
+                values.fill(f32::MAX);
+            }
         }
         // Owner tissue of every point below the threshold.
         let mut inside = 0usize;
@@ -262,7 +319,10 @@ impl ContactQuery {
     pub fn value_at(&self, model: &TissueModel, p: DVec3) -> f32 {
         let xyz = [p.x as f32, p.y as f32, p.z as f32];
         let mut best = f32::MAX;
-        for t in model.tissues.iter().take(self.tissues) {
+        for (i, t) in model.tissues.iter().take(self.tissues).enumerate() {
+            if !self.may_reach(i, p, 1e-6) {
+                continue;
+            }
             let mut v = [0f32];
             t.grid.sample_values(&xyz, &mut v);
             best = best.min(v[0]);

@@ -66,6 +66,16 @@ impl FilterSpec {
         FilterSpec::Biquad { sections, count: 1 }
     }
 
+    /// A preset by the name the command line and the plugin use: `delta`, `biquad` or `none`.
+    pub fn named(name: &str) -> Result<Self, String> {
+        match name.trim() {
+            "delta" => Ok(Self::default_delta()),
+            "biquad" => Ok(Self::seed001_biquad()),
+            "none" => Ok(FilterSpec::None),
+            other => Err(format!("'{other}', expected delta, biquad or none")),
+        }
+    }
+
     /// Checks the numbers; a bad spec is an error, never a NaN force later.
     pub fn validate(&self) -> Result<(), String> {
         match *self {

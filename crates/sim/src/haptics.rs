@@ -121,7 +121,7 @@ impl HapticCore {
             })
             .collect();
         Ok(HapticCore {
-            query: ContactQuery::new(samples, model.tissues.len()),
+            query: ContactQuery::with_bounds(samples, model),
             proxy: Proxy::new(n),
             mechanics,
             filter: ForceFilter::new(params.filter),

@@ -12,6 +12,8 @@ pub mod filter;
 pub mod force;
 pub mod haptics;
 pub mod history;
+pub mod headless;
+pub mod live;
 pub mod log;
 pub mod mesher;
 pub mod model;

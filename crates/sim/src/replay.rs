@@ -31,7 +31,12 @@ pub struct ReplayOutcome {
 }
 
 /// Replays `log` on `model`, which must be the session's starting tissues (checked by hash).
-pub fn replay(log: &SessionLog, mut model: TissueModel) -> Result<ReplayOutcome> {
+pub fn replay(log: &SessionLog, model: TissueModel) -> Result<ReplayOutcome> {
+    replay_with_progress(log, model, &mut |_| {})
+}
+
+/// [`replay`], calling `progress(fraction)` every 1000 ticks.
+pub fn replay_with_progress(log: &SessionLog, mut model: TissueModel, progress: &mut dyn FnMut(f64)) -> Result<ReplayOutcome> {
     let names: Vec<String> = model.tissues.iter().map(|t| t.props.name.clone()).collect();
     if names != log.header.tissues {
         return Err(invalid("replay model", format!("tissues {names:?}, the log has {:?}", log.header.tissues)));
@@ -47,7 +52,11 @@ pub fn replay(log: &SessionLog, mut model: TissueModel) -> Result<ReplayOutcome>
     let mut core = HapticCore::new(log.header.params.clone(), &model)?;
     let mut max_diff = 0.0f64;
     let mut forces = Vec::with_capacity(log.records.len());
-    for r in &log.records {
+    let total = log.records.len().max(1) as f64;
+    for (i, r) in log.records.iter().enumerate() {
+        if i % 1000 == 0 {
+            progress(i as f64 / total);
+        }
         let state = DeviceState { pose: r.pose, buttons: r.buttons, rpm: r.rpm };
         let out = core.tick(&mut model, &state, r.flags & FLAG_MISSED != 0)?;
         max_diff = max_diff.max((out.force - r.force).length());

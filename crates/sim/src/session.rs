@@ -83,6 +83,8 @@ pub struct SessionOutcome {
     pub log_path: Option<PathBuf>,
     /// The contact sequence collapsed to its changes: (tissue index or −1, first tick).
     pub contact_changes: Vec<(i32, u64)>,
+    /// The last tick logged (what a display should show at the end).
+    pub last_record: Option<TickRecord>,
 }
 
 /// A stroke for the mesher's mirror.
@@ -115,6 +117,7 @@ struct LoggerStats {
     contact_ticks: Vec<u64>,
     max_force: f64,
     changes: Vec<(i32, u64)>,
+    last: Option<TickRecord>,
 }
 
 struct MesherStats {
@@ -261,6 +264,7 @@ impl Session {
             meshes_published: mesher.map_or(0, |m| m.published),
             log_path: self.log_path.clone(),
             contact_changes: logger.changes,
+            last_record: logger.last,
             model,
         })
     }
@@ -406,7 +410,7 @@ fn logger_loop(
     shared: &Shared,
     tissues: usize,
 ) -> Result<LoggerStats> {
-    let mut stats = LoggerStats { periods_us: Vec::new(), contact_ticks: vec![0; tissues], max_force: 0.0, changes: Vec::new() };
+    let mut stats = LoggerStats { periods_us: Vec::new(), contact_ticks: vec![0; tissues], max_force: 0.0, changes: Vec::new(), last: None };
     let mut last_wall: Option<f64> = None;
     let mut last_tissue = i32::MIN;
     let io = |path: &PathBuf, e: std::io::Error| Error::File { path: path.clone(), message: e.to_string() };
@@ -435,6 +439,7 @@ fn logger_loop(
             w.flush().map_err(|e| io(path, e))?;
         }
         if latest.is_some() {
+            stats.last = latest;
             *shared.latest.lock().unwrap_or_else(|p| p.into_inner()) = latest;
         }
         if done && rx.is_empty() {

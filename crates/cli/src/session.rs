@@ -1,0 +1,57 @@
+//! `dentsim session`: a headless haptic session written to a folder (logic in sim::headless).
+use std::path::PathBuf;
+
+use anyhow::Result;
+use dentsim_sim::headless::{run_session_to_dir, SessionRequest, LOG_NAME, SUMMARY_NAME};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// Tissues to work on (.vdb with one level-set grid per tissue, e.g. from `dentsim demo`).
+    #[arg(long)]
+    tissues: PathBuf,
+    /// `scripted:PATH.csv` (t,x,y,z,qw,qx,qy,qz[,rpm][,cut]) or `hand:KEY=VAL,...` with keys
+    /// start=X:Y:Z, target=X:Y:Z (mm), push (N), stiffness, damping, mass, pedal (0|1), rpm, duration (s).
+    #[arg(long, allow_hyphen_values = true)]
+    device: String,
+    /// Output folder (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// Device profile: touch, omni, desktop, premium15, falcon, omega.
+    #[arg(long, default_value = "desktop")]
+    profile: String,
+    /// Force filter: delta, biquad or none.
+    #[arg(long, default_value = "delta")]
+    filter: String,
+    /// Tick on the wall clock at 1 kHz (default: ticks back to back, same physics).
+    #[arg(long)]
+    realtime: bool,
+}
+
+pub fn run(args: &Args) -> Result<()> {
+    let request = SessionRequest {
+        tissues: args.tissues.clone(),
+        device: args.device.clone(),
+        out: args.out.clone(),
+        profile: args.profile.clone(),
+        filter: args.filter.clone(),
+        realtime: args.realtime,
+    };
+    let bar = crate::progress::bar(100);
+    let summary = run_session_to_dir(&request, &mut |step, fraction| {
+        bar.set_message(step.to_owned());
+        bar.set_position((fraction * 100.0) as u64);
+    })?;
+    bar.finish_and_clear();
+    println!(
+        "{} ticks ({:.3} s), {} missed deadlines, max force {:.3} N",
+        summary.ticks, summary.duration_s, summary.missed_deadlines, summary.max_force_n
+    );
+    for t in &summary.tissues {
+        println!(
+            "{:<8} removed {:>8.4} mm³  contact {:>7.3} s  hash {}",
+            t.name, t.removed_mm3, t.contact_s, t.content_hash
+        );
+    }
+    println!("wrote {} ({LOG_NAME}, tissues.vdb, meshes, {SUMMARY_NAME})", args.out.display());
+    Ok(())
+}

@@ -1,0 +1,256 @@
+//! Headless sessions and their replays, written to a folder: what `dentsim session` and
+//! `dentsim replay` do, kept here so the command stays a thin face.
+//!
+//! Every input (tissues file, device, profile, filter, log) is read and checked before the output
+//! folder is touched, so bad input writes nothing. Each output is written under a temporary name
+//! and renamed; a failed session leaves no log behind.
+use std::path::{Path, PathBuf};
+use std::time::Duration;
+
+use dentsim_devices::{DeviceProfile, DeviceSpec};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{invalid, Error, Result};
+use crate::export::{write_atomic, write_stl, write_vtp};
+use crate::filter::FilterSpec;
+use crate::haptics::HapticParams;
+use crate::log::SessionLog;
+use crate::model::TissueModel;
+use crate::plot::plot_forces;
+use crate::replay::{replay_with_progress, write_force_csv};
+use crate::session::{Session, SessionOptions};
+use crate::tissue::TissueTable;
+
+pub const LOG_NAME: &str = "session.dslog";
+pub const SUMMARY_NAME: &str = "summary.json";
+pub const REPLAY_SUMMARY_NAME: &str = "replay.json";
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct SessionRequest {
+    pub tissues: PathBuf,
+    pub device: String,
+    pub out: PathBuf,
+    /// Device profile name (`touch`, `omni`, `desktop`, …).
+    pub profile: String,
+    /// `delta`, `biquad` or `none`.
+    pub filter: String,
+    /// Tick on the wall clock (1 kHz) instead of back to back.
+    pub realtime: bool,
+}
+
+/// One tissue's figures after a session or replay.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TissueSummary {
+    pub name: String,
+    pub volume_before_mm3: f64,
+    pub volume_after_mm3: f64,
+    /// Removed by the session's cuts (sum of the cut reports), mm³.
+    pub removed_mm3: f64,
+    /// Session time the burr spent in contact with this tissue (s).
+    pub contact_s: f64,
+    /// [`dentsim_vdb::LevelSet::content_hash`] of the final grid, hex: equal hashes = same grid.
+    pub content_hash: String,
+    pub triangles: usize,
+}
+
+/// `summary.json` of a session.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SessionSummary {
+    pub dentsim_version: String,
+    pub tissues_file: String,
+    pub device: String,
+    pub profile: String,
+    pub filter: String,
+    pub realtime: bool,
+    pub ticks: u64,
+    pub duration_s: f64,
+    pub missed_deadlines: u64,
+    pub watchdog_trips: u32,
+    pub device_faults: u64,
+    pub max_force_n: f64,
+    pub log: String,
+    pub tissues: Vec<TissueSummary>,
+}
+
+/// `replay.json`: the replay's figures and whether they equal the session's.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ReplaySummary {
+    pub log: String,
+    pub ticks: u64,
+    /// Largest difference between logged and replayed force (N); 0 for a faithful replay.
+    pub max_force_difference_n: f64,
+    /// Bytes of a partial last record the log reader dropped (a crash while writing).
+    pub truncated_log_bytes: usize,
+    /// True/false when the session's `summary.json` sat beside the log; `None` otherwise.
+    pub hashes_match_session: Option<bool>,
+    pub tissues: Vec<TissueSummary>,
+}
+
+fn hex(hash: u64) -> String {
+    format!("{hash:016x}")
+}
+
+/// Loads a tissues file; errors name it.
+fn load_tissues(path: &Path) -> Result<TissueModel> {
+    let model = TissueModel::load(path, &TissueTable::default())?;
+    if model.tissues.is_empty() {
+        return Err(Error::File { path: path.to_owned(), message: "holds no tissue grids".into() });
+    }
+    Ok(model)
+}
+
+fn create_dir(out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out).map_err(|e| Error::File { path: out.to_owned(), message: e.to_string() })
+}
+
+/// Meshes, `tissues.vdb` and the per-tissue figures of a finished model.
+fn write_tissues(
+    model: &mut TissueModel,
+    out: &Path,
+    before: &[(String, f64)],
+    removed: &[(String, f64)],
+    contact_s: &[f64],
+    progress: &mut dyn FnMut(&str, f64),
+) -> Result<Vec<TissueSummary>> {
+    let mut tissues = Vec::new();
+    let n = model.tissues.len();
+    for (i, t) in model.tissues.iter().enumerate() {
+        progress(&format!("meshing {}", t.props.name), i as f64 / n as f64);
+        let mesh = t.grid.to_mesh();
+        write_vtp(&out.join(format!("{}.vtp", t.props.name)), &mesh, &t.props)?;
+        write_stl(&out.join(format!("{}.stl", t.props.name)), &mesh)?;
+        tissues.push(TissueSummary {
+            name: t.props.name.clone(),
+            volume_before_mm3: before.get(i).map_or(f64::NAN, |b| b.1),
+            volume_after_mm3: t.grid.volume(),
+            removed_mm3: removed.get(i).map_or(0.0, |r| r.1),
+            contact_s: contact_s.get(i).copied().unwrap_or(0.0),
+            content_hash: hex(t.grid.content_hash()),
+            triangles: mesh.triangles.len(),
+        });
+    }
+    progress("writing tissues.vdb", 1.0);
+    model.save(&out.join("tissues.vdb"))?;
+    Ok(tissues)
+}
+
+fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
+    let json = serde_json::to_vec_pretty(value).map_err(|e| invalid("summary", e.to_string()))?;
+    write_atomic(path, |w| w.write_all(&json))
+}
+
+/// Runs a headless session and writes `session.dslog`, `tissues.vdb`, `<tissue>.vtp/.stl` and
+/// `summary.json` into `req.out`. `progress(step, fraction)` follows the session time.
+pub fn run_session_to_dir(req: &SessionRequest, progress: &mut dyn FnMut(&str, f64)) -> Result<SessionSummary> {
+    let profile = DeviceProfile::named(&req.profile).map_err(|e| invalid("profile", e.to_string()))?;
+    let filter = FilterSpec::named(&req.filter).map_err(|m| invalid("filter", m))?;
+    let spec = DeviceSpec::parse(&req.device).map_err(|e| invalid("device", e.to_string()))?;
+    let model = load_tissues(&req.tissues)?;
+    let (device, duration_s) = spec.open().map_err(|e| invalid("device", e.to_string()))?;
+    let params = HapticParams { profile, filter, ..HapticParams::default() };
+    let before = model.volumes();
+
+    create_dir(&req.out)?;
+    let log_path = req.out.join(LOG_NAME);
+    let tmp_log = req.out.join(format!(".{LOG_NAME}.{}.tmp", std::process::id()));
+    let options = SessionOptions {
+        params: params.clone(),
+        realtime: req.realtime,
+        max_duration_s: (duration_s + 1.0).max(1.0),
+        log_path: Some(tmp_log.clone()),
+        mesher_hz: None,
+        raise_priority: req.realtime,
+    };
+    let run = || -> Result<_> {
+        let session = Session::start(model, device, options)?;
+        while session.is_running() {
+            let t = session.latest().map_or(0.0, |r| r.t_s);
+            progress("session", (t / duration_s.max(1e-3)).clamp(0.0, 1.0));
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        session.stop()
+    };
+    let mut outcome = match run() {
+        Ok(o) => o,
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp_log);
+            return Err(e);
+        }
+    };
+    let period = params.period_s;
+    let contact_s: Vec<f64> = outcome.contact_ticks.iter().map(|(_, t)| *t as f64 * period).collect();
+    let tissues = write_tissues(&mut outcome.model, &req.out, &before, &outcome.removed_mm3, &contact_s, progress)?;
+    std::fs::rename(&tmp_log, &log_path).map_err(|e| Error::File { path: log_path.clone(), message: e.to_string() })?;
+    let summary = SessionSummary {
+        dentsim_version: env!("CARGO_PKG_VERSION").into(),
+        tissues_file: req.tissues.display().to_string(),
+        device: req.device.clone(),
+        profile: req.profile.clone(),
+        filter: req.filter.clone(),
+        realtime: req.realtime,
+        ticks: outcome.ticks,
+        duration_s: outcome.ticks as f64 * period,
+        missed_deadlines: outcome.missed_deadlines,
+        watchdog_trips: outcome.watchdog_trips,
+        device_faults: outcome.device_faults,
+        max_force_n: outcome.max_force_n,
+        log: LOG_NAME.into(),
+        tissues,
+    };
+    write_json(&req.out.join(SUMMARY_NAME), &summary)?;
+    Ok(summary)
+}
+
+/// Replays `log` on the tissues it started from and writes `tissues.vdb`, meshes, `forces.csv`,
+/// `forces.png` and `replay.json` into `out`. If the session's `summary.json` lies beside the
+/// log, the final content hashes are compared with it; a difference is an error (after writing).
+pub fn replay_to_dir(log_path: &Path, tissues: &Path, out: &Path, progress: &mut dyn FnMut(&str, f64)) -> Result<ReplaySummary> {
+    let log = SessionLog::read(log_path)?;
+    let model = load_tissues(tissues)?;
+    let session: Option<SessionSummary> = match log_path.parent().map(|d| d.join(SUMMARY_NAME)) {
+        Some(p) if p.is_file() => {
+            let text = std::fs::read(&p).map_err(|e| Error::File { path: p.clone(), message: e.to_string() })?;
+            Some(serde_json::from_slice(&text).map_err(|e| Error::File { path: p.clone(), message: format!("not a session summary: {e}") })?)
+        }
+        _ => None,
+    };
+    let before = model.volumes();
+    let mut again = replay_with_progress(&log, model, &mut |f| progress("replay", f))
+        .map_err(|e| Error::File { path: tissues.to_owned(), message: e.to_string() })?;
+
+    create_dir(out)?;
+    let period = log.header.params.period_s;
+    let mut contact = vec![0.0; again.model.tissues.len()];
+    for s in &again.forces {
+        if let Some(c) = usize::try_from(s.tissue).ok().and_then(|i| contact.get_mut(i)) {
+            *c += period;
+        }
+    }
+    let names: Vec<String> = again.model.tissues.iter().map(|t| t.props.name.clone()).collect();
+    let colours: Vec<[f32; 3]> = again.model.tissues.iter().map(|t| t.props.colour).collect();
+    let tissues_out = write_tissues(&mut again.model, out, &before, &again.removed_mm3, &contact, progress)?;
+    progress("writing forces", 1.0);
+    write_force_csv(&out.join("forces.csv"), &again.forces, &names)?;
+    plot_forces(&out.join("forces.png"), &again.forces, &colours, 1200, 500)?;
+    let hashes_match_session = session.as_ref().map(|s| {
+        s.tissues.len() == tissues_out.len()
+            && s.tissues.iter().zip(&tissues_out).all(|(a, b)| a.name == b.name && a.content_hash == b.content_hash)
+    });
+    let summary = ReplaySummary {
+        log: log_path.display().to_string(),
+        ticks: log.records.len() as u64,
+        max_force_difference_n: again.max_force_difference_n,
+        truncated_log_bytes: log.truncated_bytes,
+        hashes_match_session,
+        tissues: tissues_out,
+    };
+    write_json(&out.join(REPLAY_SUMMARY_NAME), &summary)?;
+    if hashes_match_session == Some(false) {
+        return Err(invalid(
+            "replay",
+            format!("final content hashes differ from the session's {} (see {})", SUMMARY_NAME, out.join(REPLAY_SUMMARY_NAME).display()),
+        ));
+    }
+    Ok(summary)
+}

@@ -1,0 +1,174 @@
+//! A session for displays (the plugin's live source): starts a [`Session`] on a tissues file or
+//! the built-in phantom, and hands out its latest state without ever blocking the haptic thread.
+//!
+//! `poll` reads what the logger and mesher threads last published (two short mutexes the haptic
+//! thread never touches). Once the device has finished, `poll` stops the session and meshes the
+//! final model itself, so the last state shown is exactly the session's result (a scripted,
+//! non-real-time run therefore always ends on the same picture).
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use dentsim_devices::{DeviceProfile, DeviceSpec};
+use dentsim_vdb::{LevelSet, TriMesh};
+use glam::{DAffine3, DVec3};
+
+use crate::burr::Burr;
+use crate::error::{invalid, Result};
+use crate::filter::FilterSpec;
+use crate::haptics::HapticParams;
+use crate::log::TickRecord;
+use crate::model::TissueModel;
+use crate::phantom::CapsuleTooth;
+use crate::session::{Session, SessionOptions};
+use crate::tissue::{TissueProps, TissueTable};
+
+/// What to start.
+#[derive(Clone, Debug)]
+pub struct LiveRequest {
+    /// A .vdb of tissues; `None` builds the capsule phantom at `phantom_voxel_mm`.
+    pub tissues: Option<PathBuf>,
+    pub phantom_voxel_mm: f64,
+    /// `scripted:PATH.csv` or `hand:KEY=VAL,...` (see [`DeviceSpec`]).
+    pub device: String,
+    pub profile: String,
+    pub filter: String,
+    pub realtime: bool,
+    /// How often the mesher refreshes the tissue surfaces (Hz).
+    pub mesher_hz: f64,
+}
+
+/// The latest state for a display.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LiveState {
+    pub tick: u64,
+    pub t_s: f64,
+    /// Device pose (tool frame → world) and the proxy the burr is drawn at.
+    pub pose: DAffine3,
+    pub proxy: DVec3,
+    /// Force sent to the device (N).
+    pub force: DVec3,
+    /// Name of the tissue in contact, if any.
+    pub tissue: Option<String>,
+    /// False once the device has finished and the final model is meshed.
+    pub running: bool,
+    /// Bumped whenever any tissue surface changes.
+    pub mesh_generation: u64,
+}
+
+pub struct LiveSession {
+    session: Option<Session>,
+    props: Vec<TissueProps>,
+    meshes: Vec<Arc<TriMesh>>,
+    generation: u64,
+    burr_mesh: TriMesh,
+    last: Option<TickRecord>,
+    /// Enclosed volume of each tissue's first mesh (mm³), to show what the session removed.
+    initial_volumes: Vec<f64>,
+}
+
+impl LiveSession {
+    /// Checks every input, builds or loads the tissues, meshes them once and starts the threads.
+    pub fn start(req: &LiveRequest) -> Result<Self> {
+        let profile = DeviceProfile::named(&req.profile).map_err(|e| invalid("profile", e.to_string()))?;
+        let filter = FilterSpec::named(&req.filter).map_err(|m| invalid("filter", m))?;
+        let spec = DeviceSpec::parse(&req.device).map_err(|e| invalid("device", e.to_string()))?;
+        let table = TissueTable::default();
+        let model = match &req.tissues {
+            Some(path) => TissueModel::load(path, &table)?,
+            None => {
+                if !(req.phantom_voxel_mm.is_finite() && (0.01..=0.5).contains(&req.phantom_voxel_mm)) {
+                    return Err(invalid("phantom voxel size", format!("{} mm, expected 0.01 ..= 0.5", req.phantom_voxel_mm)));
+                }
+                CapsuleTooth::default().build(req.phantom_voxel_mm, &table)?
+            }
+        };
+        let (device, duration_s) = spec.open().map_err(|e| invalid("device", e.to_string()))?;
+        let params = HapticParams { profile, filter, ..HapticParams::default() };
+        let burr_mesh = burr_mesh(&Burr::round(params.burr_diameter_mm)?)?;
+        let props = model.tissues.iter().map(|t| t.props.clone()).collect();
+        let meshes: Vec<Arc<TriMesh>> = model.tissues.iter().map(|t| Arc::new(t.grid.to_mesh())).collect();
+        let initial_volumes = meshes.iter().map(|m| m.volume()).collect();
+        let options = SessionOptions {
+            params,
+            realtime: req.realtime,
+            max_duration_s: (duration_s + 1.0).max(1.0),
+            log_path: None,
+            mesher_hz: Some(req.mesher_hz),
+            raise_priority: req.realtime,
+        };
+        let session = Session::start(model, device, options)?;
+        Ok(LiveSession { session: Some(session), props, meshes, generation: 1, burr_mesh, last: None, initial_volumes })
+    }
+
+    /// The latest state; picks up new meshes. Never waits on the haptic thread; after the device
+    /// finished, the first call joins the threads and meshes the final model.
+    pub fn poll(&mut self) -> Result<LiveState> {
+        if let Some(session) = &self.session {
+            if let Some(r) = session.latest() {
+                self.last = Some(r);
+            }
+            if session.is_running() {
+                for (mine, new) in self.meshes.iter_mut().zip(session.latest_meshes()) {
+                    if let Some(new) = new.filter(|n| !Arc::ptr_eq(n, mine)) {
+                        *mine = new;
+                        self.generation += 1;
+                    }
+                }
+            } else {
+                let outcome = self.session.take().expect("checked above").stop()?;
+                // The logger has drained every record by now: its last is the session's last tick.
+                if outcome.last_record.is_some() {
+                    self.last = outcome.last_record;
+                }
+                self.meshes = outcome.model.tissues.iter().map(|t| Arc::new(t.grid.to_mesh())).collect();
+                self.generation += 1;
+            }
+        }
+        let r = self.last.unwrap_or_default();
+        Ok(LiveState {
+            tick: r.tick,
+            t_s: r.t_s,
+            pose: r.pose,
+            proxy: r.proxy,
+            force: r.force,
+            tissue: usize::try_from(r.tissue).ok().and_then(|i| self.props.get(i)).map(|p| p.name.clone()),
+            running: self.session.is_some(),
+            mesh_generation: self.generation,
+        })
+    }
+
+    pub fn tissues(&self) -> &[TissueProps] {
+        &self.props
+    }
+
+    /// The latest surface of each tissue (model order).
+    pub fn meshes(&self) -> &[Arc<TriMesh>] {
+        &self.meshes
+    }
+
+    /// (before, now) enclosed volume of each tissue's surface (mm³, from the meshes).
+    pub fn volumes_mm3(&self) -> Vec<(f64, f64)> {
+        self.initial_volumes.iter().zip(&self.meshes).map(|(b, m)| (*b, m.volume())).collect()
+    }
+
+    /// The burr head at the proxy with the device's orientation (world), as a display draws it.
+    pub fn burr_at(&self, state: &LiveState) -> TriMesh {
+        let mut pose = state.pose;
+        pose.translation = state.proxy;
+        let m = &self.burr_mesh;
+        TriMesh {
+            points: m.points.iter().map(|p| pose.transform_point3(p.as_dvec3()).as_vec3()).collect(),
+            normals: m.normals.iter().map(|n| pose.transform_vector3(n.as_dvec3()).normalize_or_zero().as_vec3()).collect(),
+            triangles: m.triangles.clone(),
+        }
+    }
+}
+
+/// The burr head's surface in the tool frame, meshed from its SDF (a ball: a few thousand triangles).
+fn burr_mesh(burr: &Burr) -> Result<TriMesh> {
+    let r = burr.bounding_radius();
+    let h = (r / 20.0).max(0.01);
+    let pad = DVec3::splat(4.0 * h);
+    let grid = LevelSet::from_sdf(h, 3.0, DVec3::new(-r, -r, -r) - pad, DVec3::new(r, r, 2.0 * r) + pad, |p| burr.sdf(p))?;
+    Ok(grid.to_mesh())
+}

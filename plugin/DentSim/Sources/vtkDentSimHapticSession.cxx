@@ -1,0 +1,173 @@
+#include "vtkDentSimHapticSession.h"
+
+#include <vtkCellArray.h>
+#include <vtkCompositeDataSet.h>
+#include <vtkDoubleArray.h>
+#include <vtkFieldData.h>
+#include <vtkInformation.h>
+#include <vtkInformationVector.h>
+#include <vtkMultiBlockDataSet.h>
+#include <vtkNew.h>
+#include <vtkObjectFactory.h>
+#include <vtkPointData.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkSmartPointer.h>
+#include <vtkStringArray.h>
+
+#include <optional>
+
+#include "vtkDentSimSurfaces.h"
+
+// The Rust session and what was last shown; kept out of the header (no Rust types there).
+struct vtkDentSimHapticSession::Internals {
+  std::optional<rust::Box<dentsim::ffi::HapticSession>> Session;
+  std::string StartedWith;  // the parameters the running session was started with
+  vtkSmartPointer<vtkMultiBlockDataSet> Tissues;
+  uint64_t MeshGeneration = 0;
+  bool ShownFinal = false;
+};
+
+vtkStandardNewMacro(vtkDentSimHapticSession);
+
+vtkDentSimHapticSession::vtkDentSimHapticSession() : Internal(new Internals) {
+  this->SetNumberOfInputPorts(0);
+  const auto d = dentsim::ffi::default_session();
+  this->PhantomVoxelSize = d.phantom_voxel_mm;
+  this->SetProfile(std::string(d.profile).c_str());
+  this->SetFilter(std::string(d.filter).c_str());
+  this->SetHandParameters("start=0:0:5.6,target=0:0:2.5,push=1,pedal=1,duration=10");
+  this->RealTime = d.realtime;
+}
+
+vtkDentSimHapticSession::~vtkDentSimHapticSession() {
+  delete this->Internal;  // drops the session: stops and joins its threads
+  this->SetTissuesFile(nullptr);
+  this->SetScriptedPath(nullptr);
+  this->SetHandParameters(nullptr);
+  this->SetProfile(nullptr);
+  this->SetFilter(nullptr);
+}
+
+bool vtkDentSimHapticSession::GetNeedsUpdate() {
+  if (!this->Internal->Session || this->Internal->ShownFinal) {
+    return false;
+  }
+  this->Modified();
+  return true;
+}
+
+namespace {
+
+std::string Str(const char* s) { return s ? s : ""; }
+
+void AddField(vtkFieldData* fd, const char* name, double value) {
+  vtkNew<vtkDoubleArray> a;
+  a->SetName(name);
+  a->InsertNextValue(value);
+  fd->AddArray(a);
+}
+
+// A line from the burr centre along the force (10 mm per N), `Force` (N) at both ends.
+vtkSmartPointer<vtkPolyData> ForceArrow(const dentsim::ffi::SessionState& s, double burrRadius) {
+  const double c[3] = {s.burr_position_mm[0], s.burr_position_mm[1], s.burr_position_mm[2] + burrRadius};
+  vtkNew<vtkPoints> points;
+  points->InsertNextPoint(c);
+  constexpr double mmPerN = 10.0;  // contact forces are ~0.1–3 N; the burr head is ~1 mm
+  points->InsertNextPoint(c[0] + mmPerN * s.force_n[0], c[1] + mmPerN * s.force_n[1],
+                          c[2] + mmPerN * s.force_n[2]);
+  vtkNew<vtkCellArray> lines;
+  const vtkIdType ids[2] = {0, 1};
+  lines->InsertNextCell(2, ids);
+  vtkNew<vtkDoubleArray> force;
+  force->SetName("Force");
+  force->SetNumberOfComponents(3);
+  force->InsertNextTuple3(s.force_n[0], s.force_n[1], s.force_n[2]);
+  force->InsertNextTuple3(s.force_n[0], s.force_n[1], s.force_n[2]);
+  auto pd = vtkSmartPointer<vtkPolyData>::New();
+  pd->SetPoints(points);
+  pd->SetLines(lines);
+  pd->GetPointData()->SetVectors(force);
+  return pd;
+}
+
+}  // namespace
+
+int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**,
+                                         vtkInformationVector* outputVector) {
+  auto* output = vtkMultiBlockDataSet::GetData(outputVector, 0);
+  auto& in = *this->Internal;
+  dentsim::ffi::SessionParams params = dentsim::ffi::default_session();
+  params.tissues_path = Str(this->TissuesFile);
+  params.phantom_voxel_mm = this->PhantomVoxelSize;
+  params.device = this->DeviceKind == 0 ? "scripted:" + Str(this->ScriptedPath)
+                                        : "hand:" + Str(this->HandParameters);
+  params.profile = Str(this->Profile);
+  params.filter = Str(this->Filter);
+  params.realtime = this->RealTime;
+  const std::string signature = std::string(params.tissues_path) + "|" +
+    std::to_string(params.phantom_voxel_mm) + "|" + std::string(params.device) + "|" +
+    std::string(params.profile) + "|" + std::string(params.filter) + "|" +
+    (params.realtime ? "rt" : "batch");
+  try {
+    if (!in.Session || in.StartedWith != signature) {
+      in.Session.reset();  // stop the old one first
+      in.Tissues = nullptr;
+      in.MeshGeneration = 0;
+      in.ShownFinal = false;
+      in.StartedWith = signature;
+      in.Session.emplace(dentsim::ffi::start_session(params));
+    }
+    auto& session = **in.Session;
+    const auto state = session.poll();
+    if (!in.Tissues || state.mesh_generation != in.MeshGeneration) {
+      in.Tissues = vtkSmartPointer<vtkMultiBlockDataSet>::New();
+      dentsim::FillTissueBlocks(session.tissue_surfaces(), in.Tissues);
+      in.MeshGeneration = state.mesh_generation;
+    }
+    rust::Vec<dentsim::ffi::TissueSurface> burr;
+    burr.push_back(session.burr_surface());
+    vtkNew<vtkMultiBlockDataSet> burrBlock;
+    dentsim::FillTissueBlocks(burr, burrBlock);
+
+    const unsigned int n = in.Tissues->GetNumberOfBlocks();
+    output->SetNumberOfBlocks(n + 2);
+    for (unsigned int i = 0; i < n; ++i) {
+      output->SetBlock(i, in.Tissues->GetBlock(i));
+      output->GetMetaData(i)->Set(vtkCompositeDataSet::NAME(),
+                                  in.Tissues->GetMetaData(i)->Get(vtkCompositeDataSet::NAME()));
+    }
+    output->SetBlock(n, burrBlock->GetBlock(0));
+    output->GetMetaData(n)->Set(vtkCompositeDataSet::NAME(), "burr");
+    auto arrow = ForceArrow(state, 0.5);
+    output->SetBlock(n + 1, arrow);
+    output->GetMetaData(n + 1)->Set(vtkCompositeDataSet::NAME(), "force");
+
+    vtkFieldData* fd = output->GetFieldData();
+    vtkNew<vtkStringArray> contact;
+    contact->SetName("ContactTissue");
+    contact->InsertNextValue(std::string(state.contact_tissue));
+    fd->AddArray(contact);
+    arrow->GetFieldData()->AddArray(contact);
+    AddField(fd, "Tick", double(state.tick));
+    AddField(fd, "Time", state.time_s);
+    AddField(fd, "Running", state.running ? 1.0 : 0.0);
+    in.ShownFinal = !state.running;
+  } catch (const rust::Error& e) {
+    in.Session.reset();
+    in.ShownFinal = true;
+    vtkErrorMacro(<< "DentSim: " << e.what());
+    return 0;
+  }
+  return 1;
+}
+
+void vtkDentSimHapticSession::PrintSelf(ostream& os, vtkIndent indent) {
+  this->Superclass::PrintSelf(os, indent);
+  os << indent << "TissuesFile: " << Str(this->TissuesFile) << "\n";
+  os << indent << "DeviceKind: " << this->DeviceKind << "\n";
+  os << indent << "ScriptedPath: " << Str(this->ScriptedPath) << "\n";
+  os << indent << "HandParameters: " << Str(this->HandParameters) << "\n";
+  os << indent << "Profile: " << Str(this->Profile) << " Filter: " << Str(this->Filter)
+     << " RealTime: " << this->RealTime << "\n";
+}
