@@ -3,6 +3,7 @@ mod args;
 mod bench;
 mod demo;
 mod phantom;
+mod prepare;
 mod progress;
 mod segment;
 mod replay;
@@ -23,6 +24,8 @@ enum Command {
     Demo(demo::Args),
     /// Turn a CBCT scan into one tooth's tissue level sets (.vdb) and a report.
     Segment(segment::Args),
+    /// Cut a tool path with a burr into tissues; write the prepared tissues and prepare.json.
+    Prepare(prepare::Args),
     /// Write the built-in molar phantom scan as DICOM, NIfTI or MetaImage.
     Phantom(phantom::Args),
     /// Time dentsim beside its peer (plain OpenVDB and mesh-based ways) in the same run.
@@ -39,6 +42,7 @@ fn main() -> anyhow::Result<()> {
         Command::Bench(args) => bench::run(&args),
         Command::Segment(args) => segment::run(&args),
         Command::Phantom(args) => phantom::run(&args),
+        Command::Prepare(args) => prepare::run(&args),
         Command::Session(args) => session::run(&args),
         Command::Replay(args) => replay::run(&args),
     }

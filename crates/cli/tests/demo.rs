@@ -20,6 +20,8 @@ fn demo_writes_surfaces_vdb_and_a_consistent_summary() {
     let summary: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(number(&summary, "voxel_size_mm"), 0.08);
+    let strokes: usize = summary["preparation"].as_array().unwrap().iter().map(|r| r["strokes"].as_array().unwrap().len()).sum();
+    assert!(strokes >= 2, "two burrs cut: {}", summary["preparation"]);
     let tissues = summary["tissues"].as_array().unwrap();
     let names: Vec<_> = tissues.iter().map(|t| t["name"].as_str().unwrap()).collect();
     assert_eq!(names, ["enamel", "dentin", "pulp"]);
@@ -28,7 +30,11 @@ fn demo_writes_surfaces_vdb_and_a_consistent_summary() {
             (number(t, "volume_before_mm3"), number(t, "volume_after_mm3"), number(t, "removed_mm3"));
         assert!((before - after - removed).abs() < 1e-6 * before, "{t}");
     }
-    assert!(number(&tissues[0], "removed_mm3") > 1.0, "the stroke cuts enamel");
+    for t in tissues {
+        let (truth, segmented) = (number(t, "true_volume_mm3"), number(t, "volume_before_mm3"));
+        assert!((segmented / truth - 1.0).abs() < 0.05, "segmented tooth 36 close to the phantom's truth: {t}");
+    }
+    assert!(number(&tissues[0], "removed_mm3") > 1.0, "the cavity cuts enamel");
     assert!(number(&tissues[1], "removed_mm3") > 0.0, "and dentin");
     assert_eq!(number(&tissues[2], "removed_mm3"), 0.0, "but not pulp");
 
@@ -55,8 +61,8 @@ fn bad_arguments_fail_clearly_and_write_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let cases: [(&[&str], &str); 3] = [
         (&["--voxel", "-0.1"], "voxel size"),
-        (&["--burr-diameter", "0"], "burr diameter"),
-        (&["--start", "0,0,1e9"], "stroke start"),
+        (&["--voxel", "5"], "voxel size"),
+        (&["--tissues", "/nonexistent/table.toml"], "/nonexistent/table.toml"),
     ];
     for (i, (args, expected)) in cases.into_iter().enumerate() {
         let out = dir.path().join(format!("out{i}"));

@@ -6,7 +6,25 @@ use std::path::Path;
 use dentsim_vdb::TriMesh;
 
 use crate::error::{Error, Result};
+use crate::model::TissueModel;
 use crate::tissue::TissueProps;
+
+/// Writes each tissue's surface as `<tissue>.vtp` and `<tissue>.stl` and all grids as
+/// `tissues.vdb` into `out`; returns each tissue's triangle count. `progress(step, fraction)`.
+pub fn write_model(model: &mut TissueModel, out: &Path, progress: &mut dyn FnMut(&str, f64)) -> Result<Vec<(String, usize)>> {
+    let mut triangles = Vec::new();
+    let n = model.tissues.len();
+    for (i, t) in model.tissues.iter().enumerate() {
+        progress(&format!("meshing {}", t.props.name), i as f64 / n as f64);
+        let mesh = t.grid.to_mesh();
+        write_vtp(&out.join(format!("{}.vtp", t.props.name)), &mesh, &t.props)?;
+        write_stl(&out.join(format!("{}.stl", t.props.name)), &mesh)?;
+        triangles.push((t.props.name.clone(), mesh.triangles.len()));
+    }
+    progress("writing tissues.vdb", 1.0);
+    model.save(&out.join("tissues.vdb"))?;
+    Ok(triangles)
+}
 
 /// Writes `path` through `fill`; on any failure nothing is left at `path` or beside it.
 pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {

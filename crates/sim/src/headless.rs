@@ -11,7 +11,7 @@ use dentsim_devices::{DeviceProfile, DeviceSpec};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{invalid, Error, Result};
-use crate::export::{write_atomic, write_stl, write_vtp};
+use crate::export::{write_atomic, write_model};
 use crate::filter::FilterSpec;
 use crate::haptics::HapticParams;
 use crate::log::SessionLog;
@@ -113,25 +113,21 @@ fn write_tissues(
     contact_s: &[f64],
     progress: &mut dyn FnMut(&str, f64),
 ) -> Result<Vec<TissueSummary>> {
-    let mut tissues = Vec::new();
-    let n = model.tissues.len();
-    for (i, t) in model.tissues.iter().enumerate() {
-        progress(&format!("meshing {}", t.props.name), i as f64 / n as f64);
-        let mesh = t.grid.to_mesh();
-        write_vtp(&out.join(format!("{}.vtp", t.props.name)), &mesh, &t.props)?;
-        write_stl(&out.join(format!("{}.stl", t.props.name)), &mesh)?;
-        tissues.push(TissueSummary {
+    let triangles = write_model(model, out, progress)?;
+    let tissues = model
+        .tissues
+        .iter()
+        .enumerate()
+        .map(|(i, t)| TissueSummary {
             name: t.props.name.clone(),
             volume_before_mm3: before.get(i).map_or(f64::NAN, |b| b.1),
             volume_after_mm3: t.grid.volume(),
             removed_mm3: removed.get(i).map_or(0.0, |r| r.1),
             contact_s: contact_s.get(i).copied().unwrap_or(0.0),
             content_hash: hex(t.grid.content_hash()),
-            triangles: mesh.triangles.len(),
-        });
-    }
-    progress("writing tissues.vdb", 1.0);
-    model.save(&out.join("tissues.vdb"))?;
+            triangles: triangles[i].1,
+        })
+        .collect();
     Ok(tissues)
 }
 

@@ -5,6 +5,7 @@ pub mod bench;
 pub mod burr;
 pub mod contact;
 pub mod cut;
+pub mod demo;
 pub mod dirty;
 pub mod error;
 pub mod export;

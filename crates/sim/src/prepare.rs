@@ -114,3 +114,69 @@ pub fn prepare_with_progress(
     progress(1.0);
     Ok(report)
 }
+
+/// What `prepare.json` holds: the inputs, the report, and each tissue's volumes.
+#[derive(Clone, Debug, Serialize)]
+pub struct PrepareSummary {
+    pub tissues_file: String,
+    pub path_file: String,
+    pub force_n: Option<f64>,
+    #[serde(flatten)]
+    pub report: PrepareReport,
+    pub tissues: Vec<TissueFigures>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct TissueFigures {
+    pub name: String,
+    pub volume_before_mm3: f64,
+    pub volume_after_mm3: f64,
+    pub triangles: usize,
+}
+
+/// Reads the tissues (.vdb), the tool path (CSV) and the burr, cuts the path, and writes the
+/// prepared `tissues.vdb`, `<tissue>.vtp/.stl` and `prepare.json` into `out`. Every input is read
+/// and checked before `out` is created, and every file is written whole or not at all.
+pub fn prepare_to_dir(
+    tissues: &std::path::Path,
+    path: &std::path::Path,
+    burr_spec: &str,
+    options: &PrepareOptions,
+    table: &crate::tissue::TissueTable,
+    out: &std::path::Path,
+    progress: &mut dyn FnMut(&str, f64),
+) -> Result<PrepareSummary> {
+    let burr = Burr::parse(burr_spec)?;
+    let tool_path = ToolPath::read(path, crate::path::PathLimits::default())?;
+    let mut model = TissueModel::load(tissues, table)?;
+    if model.tissues.is_empty() {
+        return Err(crate::Error::File { path: tissues.to_owned(), message: "holds no tissue grids".into() });
+    }
+    let before = model.volumes();
+    progress("cutting", 0.0);
+    let report = prepare_with_progress(&mut model, &tool_path, &burr, options, &mut |f| progress("cutting", 0.8 * f))?;
+    std::fs::create_dir_all(out).map_err(|e| crate::Error::File { path: out.to_owned(), message: e.to_string() })?;
+    let triangles = crate::export::write_model(&mut model, out, &mut |step, f| progress(step, 0.8 + 0.2 * f))?;
+    let tissue_figures = model
+        .tissues
+        .iter()
+        .zip(before)
+        .zip(triangles)
+        .map(|((t, (name, volume_before_mm3)), (_, triangles))| TissueFigures {
+            name,
+            volume_before_mm3,
+            volume_after_mm3: t.grid.volume(),
+            triangles,
+        })
+        .collect();
+    let summary = PrepareSummary {
+        tissues_file: tissues.display().to_string(),
+        path_file: path.display().to_string(),
+        force_n: options.force_n,
+        report,
+        tissues: tissue_figures,
+    };
+    let json = serde_json::to_vec_pretty(&summary).map_err(|e| crate::error::invalid("prepare.json", e.to_string()))?;
+    crate::export::write_atomic(&out.join("prepare.json"), |w| w.write_all(&json))?;
+    Ok(summary)
+}
