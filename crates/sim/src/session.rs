@@ -28,7 +28,7 @@ use crate::cut::Cutter;
 use crate::error::{invalid, Error, Result};
 use crate::haptics::{HapticCore, HapticParams};
 use crate::log::{write_header, write_record, LogHeader, TickRecord, FLAG_CUT, FLAG_DEVICE_FAULT, FLAG_MISSED};
-use crate::model::{Tissue, TissueModel};
+use crate::model::TissueModel;
 
 /// How a session runs.
 #[derive(Clone, Debug)]
@@ -177,7 +177,7 @@ impl Session {
             }
             None => None,
         };
-        let mirror = options.mesher_hz.map(|hz| (mirror_of(&model), hz));
+        let mirror = options.mesher_hz.map(|hz| (model.clone(), hz));
         let burr = core.burr().clone();
 
         let s = shared.clone();
@@ -294,19 +294,12 @@ pub fn run_session<D: Device + 'static>(model: TissueModel, device: D, options: 
     session.stop()
 }
 
-fn mirror_of(model: &TissueModel) -> TissueModel {
-    let mut m = TissueModel::new(model.source.clone(), model.fdi_tooth);
-    m.tissues = model.tissues.iter().map(|t| Tissue { props: t.props.clone(), grid: t.grid.clone() }).collect();
-    m
-}
-
-/// SCHED_FIFO at a modest priority; failure (no permission) is fine.
+/// Real-time priority where the system permits it; without permission the thread keeps its
+/// normal priority and the watchdog covers missed deadlines.
 fn raise_priority() {
-    #[cfg(target_os = "linux")]
-    // SAFETY: plain syscall on the calling thread with a valid, initialised parameter struct.
-    unsafe {
-        let param = libc::sched_param { sched_priority: 20 };
-        let _ = libc::pthread_setschedparam(libc::pthread_self(), libc::SCHED_FIFO, &param);
+    use thread_priority::{ThreadPriority, ThreadPriorityValue};
+    if let Ok(value) = ThreadPriorityValue::try_from(20u8) {
+        let _ = thread_priority::set_current_thread_priority(ThreadPriority::Crossplatform(value));
     }
 }
 
