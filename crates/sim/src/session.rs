@@ -28,6 +28,7 @@ use crate::cut::Cutter;
 use crate::error::{invalid, Error, Result};
 use crate::haptics::{HapticCore, HapticParams};
 use crate::log::{write_header, write_record, LogHeader, TickRecord, FLAG_CUT, FLAG_DEVICE_FAULT, FLAG_MISSED};
+use crate::mesher::Mesher;
 use crate::model::TissueModel;
 
 /// How a session runs.
@@ -446,6 +447,10 @@ fn logger_loop(
 fn mesher_loop(mut rx: rtrb::Consumer<StrokeMsg>, mut mirror: TissueModel, burr: Burr, hz: f64, shared: &Shared) -> MesherStats {
     let mut stats = MesherStats { latencies_ms: Vec::new(), published: 0 };
     let mut cutter = Cutter::default();
+    // Chunked meshing re-meshes only the leaves a stroke touched; without it (it failed to
+    // start), whole tissues are re-meshed.
+    let mut chunks = Mesher::full(&mirror).ok();
+    let mut dirty_chunks = Vec::new();
     let mut dirty = vec![false; mirror.tissues.len()];
     let mut oldest: Option<Instant> = None;
     let min_interval = Duration::from_secs_f64(1.0 / hz);
@@ -461,9 +466,19 @@ fn mesher_loop(mut rx: rtrb::Consumer<StrokeMsg>, mut mirror: TissueModel, burr:
             }
         }
         if dirty.iter().any(|d| *d) && last_mesh.elapsed() >= min_interval {
+            dirty_chunks.clear();
+            cutter.take_dirty(&mut dirty_chunks);
+            if let Some(m) = &mut chunks {
+                if m.update(&mirror, &dirty_chunks).is_err() {
+                    chunks = None;
+                }
+            }
             for (i, d) in dirty.iter_mut().enumerate() {
                 if std::mem::take(d) {
-                    let mesh = Arc::new(mirror.tissues[i].grid.to_mesh());
+                    let mesh = Arc::new(match &chunks {
+                        Some(m) => m.mesh(i),
+                        None => mirror.tissues[i].grid.to_mesh(),
+                    });
                     shared.meshes.lock().unwrap_or_else(|p| p.into_inner())[i] = Some(mesh);
                 }
             }
