@@ -468,15 +468,15 @@ mod tests {
     #[test]
     fn bad_preparation_inputs_name_the_field() {
         let (points, mut orientation) = groove();
-        let err = prepare_tissues(&groove_params("oval:1.0"), &points, &orientation, &[], &[], &[]).unwrap_err();
+        let err = prepare_tissues(&groove_params("oval:1.0"), &points, &orientation, &[], &[], &[]).err().expect("refused");
         assert!(err.contains("burr 'oval:1.0'"), "{err}");
         orientation[4 * 3 + 1] = f64::NAN;
-        let err = prepare_tissues(&groove_params("round:1.0"), &points, &orientation, &[], &[], &[]).unwrap_err();
+        let err = prepare_tissues(&groove_params("round:1.0"), &points, &orientation, &[], &[], &[]).err().expect("refused");
         assert!(err.contains("point 3 array Orientation"), "{err}");
-        let err = prepare_tissues(&groove_params("round:1.0"), &points, &orientation[..8], &[], &[], &[]).unwrap_err();
+        let err = prepare_tissues(&groove_params("round:1.0"), &points, &orientation[..8], &[], &[], &[]).err().expect("refused");
         assert!(err.contains("array Orientation") && err.contains("21 points"), "{err}");
         let params = PreparationParams { use_polyline: false, path_csv: "/nonexistent/path.csv".into(), ..groove_params("round:1.0") };
-        let err = prepare_tissues(&params, &[], &[], &[], &[], &[]).unwrap_err();
+        let err = prepare_tissues(&params, &[], &[], &[], &[], &[]).err().expect("refused");
         assert!(err.contains("/nonexistent/path.csv"), "{err}");
     }
 
