@@ -59,7 +59,8 @@ final = seen[-1]
 check(not final["running"] and final["tick"] == 1201, "ran to the end of the path: %s" % final)
 check(4.6 < final["burr_bottom"] < 4.95, "burr moved down into the top: %s" % final)
 check(final["contact"] == "enamel", "contact tissue: %r" % final["contact"])
-check(final["force"][2] > 0.1, "force pushes the burr back up: %s" % (final["force"],))
+# The force itself is checked on the back-to-back run below: in real time on a loaded machine the
+# watchdog may have ramped it to zero after missed deadlines, as it should.
 simple.Delete(live)
 
 # Not real time: the same path ticked back to back ends on the same state every run.

@@ -86,6 +86,36 @@ mod bridge {
         mesh_generation: u64,
     }
 
+    /// A planned preparation ("Dental Preparation"): tissues, tool path, burr, force.
+    struct PreparationParams {
+        /// A .vdb of tissues; empty for the built-in capsule phantom.
+        tissues_path: String,
+        /// Voxel size of the phantom (mm) when no file is given.
+        phantom_voxel_mm: f64,
+        /// A burr spec: catalogue name, ISO number, or `SHAPE:DIAMETER_MM[:LENGTH_MM]`.
+        burr: String,
+        /// Applied force (N) for rate-limited cutting; 0 for the geometric cut.
+        force_n: f64,
+        /// True: the path is the polyline arrays passed beside; false: the CSV at `path_csv`.
+        use_polyline: bool,
+        path_csv: String,
+    }
+
+    extern "Rust" {
+        /// Cuts the tool path into the tissues; the polyline arrays (x,y,z per point; w,x,y,z
+        /// per point; optional time, rpm, cut: empty when absent) are used when
+        /// `params.use_polyline`. Surfaces carry each tissue's volumes before and after and the
+        /// volume removed.
+        fn prepare_tissues(
+            params: &PreparationParams,
+            points: &[f64],
+            orientation: &[f64],
+            time: &[f64],
+            rpm: &[f64],
+            cut: &[f64],
+        ) -> Result<Vec<TissueSurface>>;
+    }
+
     extern "Rust" {
         type HapticSession;
         fn default_session() -> SessionParams;
@@ -104,7 +134,7 @@ mod bridge {
     }
 }
 
-pub use bridge::{ImageGeometry, SegmentParams, SessionParams, SessionState, StrokeParams, TissueSurface};
+pub use bridge::{ImageGeometry, PreparationParams, SegmentParams, SessionParams, SessionState, StrokeParams, TissueSurface};
 
 /// Runs `f`, turning a panic into an error so it never unwinds into C++.
 fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
@@ -177,6 +207,43 @@ pub fn segment_image(geometry: &ImageGeometry, values: &[f32], params: &SegmentP
         };
         let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
         Ok(unchanged_surfaces(&model))
+    })
+}
+
+/// A tool path cut into the tissues (or the phantom); see `sim::prepare::PreparationRequest`.
+pub fn prepare_tissues(
+    params: &PreparationParams,
+    points: &[f64],
+    orientation: &[f64],
+    time: &[f64],
+    rpm: &[f64],
+    cut: &[f64],
+) -> Result<Vec<TissueSurface>, String> {
+    guarded("dental preparation", || {
+        use dentsim_sim::prepare::{PathSource, PreparationRequest};
+        let tissues = (!params.tissues_path.is_empty()).then(|| std::path::Path::new(params.tissues_path.as_str()));
+        let path = if params.use_polyline {
+            PathSource::Polyline(dentsim_sim::path::PolylineArrays { points, orientation, time, rpm, cut })
+        } else if params.path_csv.is_empty() {
+            return Err("tool path: neither a polyline input nor a CSV file was given".into());
+        } else {
+            PathSource::Csv(std::path::Path::new(params.path_csv.as_str()))
+        };
+        let request = PreparationRequest {
+            tissues,
+            phantom_voxel_mm: params.phantom_voxel_mm,
+            path,
+            burr: &params.burr,
+            force_n: params.force_n,
+        };
+        let prepared = request.run(&TissueTable::default()).map_err(|e| e.to_string())?;
+        Ok(prepared
+            .model
+            .tissues
+            .iter()
+            .zip(&prepared.tissues)
+            .map(|(t, o)| surface(t, o.volume_before_mm3, o.volume_after_mm3, o.removed_mm3))
+            .collect())
     })
 }
 
@@ -364,6 +431,53 @@ mod tests {
         let burr = s.burr_surface().unwrap();
         let top = burr.points.chunks(3).map(|p| f64::from(p[2])).fold(f64::MIN, f64::max);
         assert!((top - (state.burr_position_mm[2] + 1.0)).abs() < 0.05, "{top}");
+    }
+
+    fn groove_params(burr: &str) -> PreparationParams {
+        PreparationParams {
+            tissues_path: String::new(),
+            phantom_voxel_mm: 0.1,
+            burr: burr.into(),
+            force_n: 0.0,
+            use_polyline: true,
+            path_csv: String::new(),
+        }
+    }
+
+    /// A groove along x 1 mm deep into the top of the capsule phantom (top at z = 5), burr upright.
+    fn groove() -> (Vec<f64>, Vec<f64>) {
+        let points: Vec<f64> = (0..=20).flat_map(|i| [-1.0 + 0.1 * f64::from(i), 0.0, 4.0]).collect();
+        let orientation: Vec<f64> = (0..=20).flat_map(|_| [1.0, 0.0, 0.0, 0.0]).collect();
+        (points, orientation)
+    }
+
+    #[test]
+    fn a_polyline_preparation_removes_enamel_and_books_the_volumes() {
+        let (points, orientation) = groove();
+        let surfaces = prepare_tissues(&groove_params("round:1.0"), &points, &orientation, &[], &[], &[]).unwrap();
+        let names: Vec<_> = surfaces.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(names, ["enamel", "dentin", "pulp"]);
+        assert!(surfaces[0].removed_mm3 > 1.0, "{}", surfaces[0].removed_mm3);
+        assert_eq!(surfaces[2].removed_mm3, 0.0);
+        for s in &surfaces {
+            let d = s.volume_before_mm3 - s.volume_after_mm3 - s.removed_mm3;
+            assert!(d.abs() < 1e-6 * s.volume_before_mm3, "{}: {d}", s.name);
+        }
+    }
+
+    #[test]
+    fn bad_preparation_inputs_name_the_field() {
+        let (points, mut orientation) = groove();
+        let err = prepare_tissues(&groove_params("oval:1.0"), &points, &orientation, &[], &[], &[]).err().expect("refused");
+        assert!(err.contains("burr 'oval:1.0'"), "{err}");
+        orientation[4 * 3 + 1] = f64::NAN;
+        let err = prepare_tissues(&groove_params("round:1.0"), &points, &orientation, &[], &[], &[]).err().expect("refused");
+        assert!(err.contains("point 3 array Orientation"), "{err}");
+        let err = prepare_tissues(&groove_params("round:1.0"), &points, &orientation[..8], &[], &[], &[]).err().expect("refused");
+        assert!(err.contains("array Orientation") && err.contains("21 points"), "{err}");
+        let params = PreparationParams { use_polyline: false, path_csv: "/nonexistent/path.csv".into(), ..groove_params("round:1.0") };
+        let err = prepare_tissues(&params, &[], &[], &[], &[], &[]).err().expect("refused");
+        assert!(err.contains("/nonexistent/path.csv"), "{err}");
     }
 
     #[test]

@@ -4,7 +4,8 @@
 //! +Z toward the handpiece) into the scan's frame. A quaternion whose norm is off by more than
 //! `QUAT_TOLERANCE` (1e-3) is refused rather than silently normalised: it usually means columns
 //! were swapped or truncated; within the tolerance it is normalised. Errors name the row (1 = the
-//! first data row; the header is row 0) and the column.
+//! first data row; the header is row 0) and the column. The same checks apply to a path given as
+//! a VTK polyline ([`ToolPath::from_polyline`]), whose errors name the point and the array.
 use glam::{DAffine3, DQuat, DVec3};
 
 use crate::error::{invalid, Result};
@@ -77,40 +78,14 @@ impl ToolPath {
                 return Err(invalid(format!("{source} row {row}"), format!("has {} cells, the header {}", cells.len(), names.len())));
             }
             let v: Vec<f64> = idx.iter().map(|&c| number(c)).collect::<Result<_>>()?;
-            let (t, pos) = (v[0], DVec3::new(v[1], v[2], v[3]));
-            let q = DQuat::from_xyzw(v[5], v[6], v[7], v[4]);
-            let norm = q.length();
-            if (norm - 1.0).abs() > QUAT_TOLERANCE {
-                return Err(invalid(where_("qw,qx,qy,qz"), format!("quaternion norm is {norm:.6}, expected 1 within {QUAT_TOLERANCE}")));
-            }
-            let q = q / norm;
             let rpm = rpm_col.map(&number).transpose()?;
-            if let Some(r) = rpm {
-                if r < 0.0 {
-                    return Err(invalid(where_("rpm"), format!("is {r}, expected >= 0")));
-                }
-            }
-            let cut = match cut_col.map(&number).transpose()? {
-                None => true,
-                Some(c) if c == 0.0 => false,
-                Some(c) if c == 1.0 => true,
-                Some(c) => return Err(invalid(where_("cut"), format!("is {c}, expected 0 or 1"))),
+            let cut = cut_col.map(&number).transpose()?;
+            let field = |f: Field| match f {
+                Field::Position => format!("{source} row {row} column x,y,z"),
+                Field::Orientation => format!("{source} row {row} column qw,qx,qy,qz"),
+                other => format!("{source} row {row} column {}", other.csv_column()),
             };
-            if let Some(prev) = samples.last() {
-                if t < prev.t {
-                    return Err(invalid(where_("t"), format!("time goes backwards ({t} s after {} s)", prev.t)));
-                }
-                let step = (pos - prev.pose.translation).length();
-                if step > limits.max_step_mm {
-                    return Err(invalid(where_("x,y,z"), format!("jumps {step:.3} mm from the previous row (limit {} mm)", limits.max_step_mm)));
-                }
-                let prev_q = DQuat::from_mat3(&prev.pose.matrix3);
-                let turn = prev_q.angle_between(q).to_degrees();
-                if turn > limits.max_step_deg {
-                    return Err(invalid(where_("qw,qx,qy,qz"), format!("turns {turn:.1}° from the previous row (limit {}°)", limits.max_step_deg)));
-                }
-            }
-            samples.push(PathSample { t, pose: DAffine3::from_rotation_translation(q, pos), rpm, cut });
+            push_sample(&mut samples, limits, &field, [v[0], v[1], v[2], v[3], v[4], v[5], v[6], v[7]], rpm, cut)?;
         }
         if samples.is_empty() {
             return Err(invalid(source, "has a header but no rows"));
@@ -128,5 +103,158 @@ impl ToolPath {
             (Some(a), Some(b)) => b.t - a.t,
             _ => 0.0,
         }
+    }
+}
+
+/// What a sample's value is, so an error can name it as its source calls it (a CSV column, a
+/// VTK array).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Field {
+    T,
+    X,
+    Y,
+    Z,
+    Qw,
+    Qx,
+    Qy,
+    Qz,
+    Rpm,
+    Cut,
+    /// The step between positions (jumps).
+    Position,
+    /// The quaternion as a whole (norm, turns).
+    Orientation,
+}
+
+impl Field {
+    const VALUES: [Field; 8] = [Field::T, Field::X, Field::Y, Field::Z, Field::Qw, Field::Qx, Field::Qy, Field::Qz];
+
+    fn csv_column(self) -> &'static str {
+        match self {
+            Field::T => "t",
+            Field::X => "x",
+            Field::Y => "y",
+            Field::Z => "z",
+            Field::Qw => "qw",
+            Field::Qx => "qx",
+            Field::Qy => "qy",
+            Field::Qz => "qz",
+            Field::Rpm => "rpm",
+            Field::Cut => "cut",
+            Field::Position => "x,y,z",
+            Field::Orientation => "qw,qx,qy,qz",
+        }
+    }
+}
+
+/// Checks one sample `[t, x, y, z, qw, qx, qy, qz]` against the previous ones and appends it;
+/// `at(field)` says where the value came from (row and column, point and array).
+fn push_sample(
+    samples: &mut Vec<PathSample>,
+    limits: PathLimits,
+    at: &dyn Fn(Field) -> String,
+    v: [f64; 8],
+    rpm: Option<f64>,
+    cut: Option<f64>,
+) -> Result<()> {
+    for (value, field) in v.iter().zip(Field::VALUES).chain(rpm.iter().map(|r| (r, Field::Rpm))).chain(cut.iter().map(|c| (c, Field::Cut))) {
+        if !value.is_finite() {
+            return Err(invalid(at(field), format!("is {value}, expected a finite number")));
+        }
+    }
+    let (t, pos) = (v[0], DVec3::new(v[1], v[2], v[3]));
+    let q = DQuat::from_xyzw(v[5], v[6], v[7], v[4]);
+    let norm = q.length();
+    if (norm - 1.0).abs() > QUAT_TOLERANCE {
+        return Err(invalid(at(Field::Orientation), format!("quaternion norm is {norm:.6}, expected 1 within {QUAT_TOLERANCE}")));
+    }
+    let q = q / norm;
+    if let Some(r) = rpm {
+        if r < 0.0 {
+            return Err(invalid(at(Field::Rpm), format!("is {r}, expected >= 0")));
+        }
+    }
+    let cut = match cut {
+        None => true,
+        Some(c) if c == 0.0 => false,
+        Some(c) if c == 1.0 => true,
+        Some(c) => return Err(invalid(at(Field::Cut), format!("is {c}, expected 0 or 1"))),
+    };
+    if let Some(prev) = samples.last() {
+        if t < prev.t {
+            return Err(invalid(at(Field::T), format!("time goes backwards ({t} s after {} s)", prev.t)));
+        }
+        let step = (pos - prev.pose.translation).length();
+        if step > limits.max_step_mm {
+            return Err(invalid(at(Field::Position), format!("jumps {step:.3} mm from the previous row (limit {} mm)", limits.max_step_mm)));
+        }
+        let prev_q = DQuat::from_mat3(&prev.pose.matrix3);
+        let turn = prev_q.angle_between(q).to_degrees();
+        if turn > limits.max_step_deg {
+            return Err(invalid(at(Field::Orientation), format!("turns {turn:.1}° from the previous row (limit {}°)", limits.max_step_deg)));
+        }
+    }
+    samples.push(PathSample { t, pose: DAffine3::from_rotation_translation(q, pos), rpm, cut });
+    Ok(())
+}
+
+/// A tool path as VTK holds it: a polyline's points in order with point arrays (ParaView's
+/// "Dental Preparation" filter). Empty optional arrays are absent.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PolylineArrays<'a> {
+    /// x, y, z per point (mm).
+    pub points: &'a [f64],
+    /// `Orientation`: w, x, y, z per point (unit quaternion, burr frame into the scan's).
+    pub orientation: &'a [f64],
+    /// `Time` (s); absent: points are one haptic tick (1 ms) apart.
+    pub time: &'a [f64],
+    /// `RPM`; absent: the caller's default.
+    pub rpm: &'a [f64],
+    /// `Cut` (0/1) on the way to each point from the previous; absent: every segment cuts.
+    pub cut: &'a [f64],
+}
+
+/// Spacing of polyline points that carry no `Time` array (one haptic tick).
+pub const POLYLINE_DEFAULT_DT_S: f64 = 1e-3;
+
+impl ToolPath {
+    /// A path from a polyline's arrays, checked as a CSV is; errors name the point (VTK's id,
+    /// from 0) and the array, e.g. `tool path point 3 array Orientation: quaternion norm is …`.
+    pub fn from_polyline(a: &PolylineArrays, source: &str, limits: PathLimits) -> Result<Self> {
+        let n = a.points.len() / 3;
+        if a.points.len() % 3 != 0 || n == 0 {
+            return Err(invalid(format!("{source} points"), format!("{} coordinates, expected 3 per point and at least one point", a.points.len())));
+        }
+        let sized = |name: &str, values: &[f64], per: usize, required: bool| -> Result<()> {
+            if (required || !values.is_empty()) && values.len() != per * n {
+                return Err(invalid(format!("{source} array {name}"), format!("has {} values, expected {per} per point for {n} points", values.len())));
+            }
+            Ok(())
+        };
+        sized("Orientation", a.orientation, 4, true)?;
+        sized("Time", a.time, 1, false)?;
+        sized("RPM", a.rpm, 1, false)?;
+        sized("Cut", a.cut, 1, false)?;
+        let mut samples = Vec::with_capacity(n);
+        for i in 0..n {
+            let t = if a.time.is_empty() { i as f64 * POLYLINE_DEFAULT_DT_S } else { a.time[i] };
+            let p = &a.points[3 * i..3 * i + 3];
+            let q = &a.orientation[4 * i..4 * i + 4];
+            let at = |f: Field| {
+                let what = match f {
+                    Field::T => "array Time".to_string(),
+                    Field::X | Field::Y | Field::Z => format!("coordinate {}", f.csv_column()),
+                    Field::Position => "position".to_string(),
+                    Field::Qw | Field::Qx | Field::Qy | Field::Qz | Field::Orientation => "array Orientation".to_string(),
+                    Field::Rpm => "array RPM".to_string(),
+                    Field::Cut => "array Cut".to_string(),
+                };
+                format!("{source} point {i} {what}")
+            };
+            let rpm = a.rpm.get(i).copied();
+            let cut = a.cut.get(i).copied();
+            push_sample(&mut samples, limits, &at, [t, p[0], p[1], p[2], q[0], q[1], q[2], q[3]], rpm, cut)?;
+        }
+        Ok(ToolPath { samples })
     }
 }

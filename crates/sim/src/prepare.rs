@@ -180,3 +180,73 @@ pub fn prepare_to_dir(
     crate::export::write_atomic(&out.join("prepare.json"), |w| w.write_all(&json))?;
     Ok(summary)
 }
+
+/// Where a tool path comes from.
+#[derive(Clone, Copy, Debug)]
+pub enum PathSource<'a> {
+    /// A CSV file in the `t,x,y,z,qw,qx,qy,qz[,rpm][,cut]` format.
+    Csv(&'a std::path::Path),
+    /// A polyline's points and arrays (ParaView).
+    Polyline(crate::path::PolylineArrays<'a>),
+}
+
+/// A whole preparation as the ParaView "Dental Preparation" filter asks for it: tissues from a
+/// .vdb (or the capsule phantom), a tool path, a burr spec, and an applied force (0: geometric).
+#[derive(Clone, Debug)]
+pub struct PreparationRequest<'a> {
+    /// A .vdb of tissues; `None` builds the capsule phantom at `phantom_voxel_mm`.
+    pub tissues: Option<&'a std::path::Path>,
+    pub phantom_voxel_mm: f64,
+    pub path: PathSource<'a>,
+    /// A burr spec for [`Burr::parse`].
+    pub burr: &'a str,
+    /// Applied force (N) for rate-limited cutting; 0 for the purely geometric cut.
+    pub force_n: f64,
+}
+
+/// The prepared model, each tissue's volumes, and the path's report.
+pub struct Prepared {
+    pub model: TissueModel,
+    pub tissues: Vec<crate::preparation::TissueOutcome>,
+    pub report: PrepareReport,
+}
+
+impl PreparationRequest<'_> {
+    /// Checks every input before any work (bad burr, path or force → an error naming it), then
+    /// loads or builds the tissues and cuts the path. Cost: one swept cut per path segment.
+    pub fn run(&self, table: &crate::tissue::TissueTable) -> Result<Prepared> {
+        use crate::error::invalid;
+        if !(self.force_n.is_finite() && self.force_n >= 0.0) {
+            return Err(invalid("force", format!("{} N, expected 0 (geometric) or a positive force", self.force_n)));
+        }
+        let burr = Burr::parse(self.burr)?;
+        let limits = crate::path::PathLimits::default();
+        let path = match self.path {
+            PathSource::Csv(p) => ToolPath::read(p, limits)?,
+            PathSource::Polyline(a) => ToolPath::from_polyline(&a, "tool path", limits)?,
+        };
+        let mut model = match self.tissues {
+            Some(p) => TissueModel::load(p, table)?,
+            None => {
+                if !(self.phantom_voxel_mm.is_finite() && (0.01..=0.5).contains(&self.phantom_voxel_mm)) {
+                    return Err(invalid("phantom voxel size", format!("{} mm, expected 0.01 ..= 0.5", self.phantom_voxel_mm)));
+                }
+                crate::phantom::CapsuleTooth::default().build(self.phantom_voxel_mm, table)?
+            }
+        };
+        let before = model.volumes();
+        let options = PrepareOptions { force_n: (self.force_n > 0.0).then_some(self.force_n), ..Default::default() };
+        let report = prepare(&mut model, &path, &burr, &options)?;
+        let tissues = before
+            .into_iter()
+            .zip(model.volumes())
+            .map(|((name, volume_before_mm3), (_, volume_after_mm3))| crate::preparation::TissueOutcome {
+                removed_mm3: report.removed_mm3.get(&name).copied().unwrap_or(0.0),
+                name,
+                volume_before_mm3,
+                volume_after_mm3,
+            })
+            .collect();
+        Ok(Prepared { model, tissues, report })
+    }
+}

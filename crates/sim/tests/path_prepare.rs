@@ -92,3 +92,29 @@ fn prepare_cuts_along_the_path_and_reports_per_stroke() {
     let r = prepare(&mut limited, &path, &burr, &opts).unwrap();
     assert!(r.removed_mm3["enamel"] < 0.5 * enamel, "{r:?}");
 }
+
+#[test]
+fn polylines_are_checked_as_csv_paths_and_name_the_point_and_array() {
+    use dentsim_sim::path::PolylineArrays;
+    let points = [0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.2, 0.0, 0.0];
+    let orientation = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
+    let ok = PolylineArrays { points: &points, orientation: &orientation, ..Default::default() };
+    let p = ToolPath::from_polyline(&ok, "tool path", PathLimits::default()).unwrap();
+    assert_eq!(p.samples.len(), 3);
+    assert!((p.samples[2].t - 2e-3).abs() < 1e-15 && p.samples[2].cut);
+    let from = |a: PolylineArrays| ToolPath::from_polyline(&a, "tool path", PathLimits::default()).unwrap_err().to_string();
+    let mut q = orientation;
+    q[4] = 0.9;
+    let e = from(PolylineArrays { orientation: &q, ..ok });
+    assert!(e.contains("tool path point 1 array Orientation") && e.contains("norm"), "{e}");
+    let e = from(PolylineArrays { time: &[0.0, 0.2, 0.1], ..ok });
+    assert!(e.contains("point 2 array Time") && e.contains("backwards"), "{e}");
+    let e = from(PolylineArrays { cut: &[1.0, 2.0, 1.0], ..ok });
+    assert!(e.contains("point 1 array Cut"), "{e}");
+    let e = from(PolylineArrays { rpm: &[1.0], ..ok });
+    assert!(e.contains("array RPM") && e.contains("3 points"), "{e}");
+    let mut nan = points;
+    nan[5] = f64::NAN;
+    let e = from(PolylineArrays { points: &nan, ..ok });
+    assert!(e.contains("point 1 coordinate z"), "{e}");
+}
