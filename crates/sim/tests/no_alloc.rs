@@ -1,32 +1,12 @@
 //! The touch-mode haptic tick allocates nothing: a counting global allocator around the tick.
 mod common;
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
+mod alloc_counter;
 
 use common::*;
 use dentsim_sim::haptics::{HapticCore, HapticParams};
 use glam::DVec3;
 
-struct Counting;
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
 
 #[test]
 fn touch_mode_tick_does_not_allocate() {
@@ -43,13 +23,13 @@ fn touch_mode_tick_does_not_allocate() {
             touch(DVec3::new(0.8 * s.sin(), 0.5 * s.cos(), -0.3 + 0.5 * (0.3 * s).sin()))
         })
         .collect();
-    let before = ALLOCATIONS.load(Ordering::SeqCst);
+    let before = alloc_counter::allocations();
     let mut contacts = 0;
     for (k, s) in states.iter().enumerate() {
         let out = core.tick(&mut model, s, k % 7 == 0).unwrap();
         contacts += usize::from(out.raw.tissue.is_some());
     }
-    let after = ALLOCATIONS.load(Ordering::SeqCst);
+    let after = alloc_counter::allocations();
     println!("{} ticks, {contacts} in contact, {} allocations", states.len(), after - before);
     assert!(contacts > 500);
     assert_eq!(after - before, 0);

@@ -1,8 +1,7 @@
 //! The haptic tick (`Cutter::cut_with`) allocates nothing on the Rust side once warmed up.
 //! (OpenVDB itself allocates a leaf node the first time a cut enters an interior tile; that is
 //! the tree's own storage and happens once per 8³ voxels.)
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicUsize, Ordering};
+mod alloc_counter;
 
 use dentsim_sim::burr::Burr;
 use dentsim_sim::cut::Cutter;
@@ -11,25 +10,6 @@ use dentsim_sim::removal::Feed;
 use dentsim_sim::tissue::TissueTable;
 use glam::{DAffine3, DQuat, DVec3};
 
-struct Counting;
-static ALLOCATIONS: AtomicUsize = AtomicUsize::new(0);
-
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
-
-#[global_allocator]
-static GLOBAL: Counting = Counting;
 
 #[test]
 fn warmed_up_ticks_do_not_allocate() {
@@ -48,11 +28,11 @@ fn warmed_up_ticks_do_not_allocate() {
         for i in 0..50 {
             cutter.cut_with(&mut warm, &burr, pose(i), pose(i + 1), feed).unwrap();
         }
-        let before = ALLOCATIONS.load(Ordering::Relaxed);
+        let before = alloc_counter::allocations();
         for i in 0..50 {
             cutter.cut_with(&mut model, &burr, pose(i), pose(i + 1), feed).unwrap();
         }
-        let n = ALLOCATIONS.load(Ordering::Relaxed) - before;
+        let n = alloc_counter::allocations() - before;
         assert_eq!(n, 0, "{} ticks with {:?} allocated {n} times", 50, burr.shape);
     }
 }
