@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::burr::Burr;
 use crate::contact::{BurrSamples, ContactQuery};
 use crate::cut::Cutter;
+use crate::removal::Feed;
 use crate::error::{invalid, Result};
 use crate::filter::{clamp_length, FilterSpec, ForceFilter};
 use crate::force::{contact_force, ContactForce, Mechanics, MAX_TISSUES};
@@ -218,7 +219,8 @@ impl HapticCore {
         from.translation = self.proxy.position;
         let mut to = from;
         to.translation += dir * advance;
-        let report = self.cutter.cut(model, &self.burr, from, to)?;
+        // The borrowed report: `Cutter::cut` would clone it (tissue names) every cut tick.
+        let report = self.cutter.cut_with(model, &self.burr, from, to, Feed::Geometric)?;
         let mut total = 0.0;
         for (i, (_, v)) in report.removed_mm3.iter().enumerate() {
             if let Some(r) = self.removed_mm3.get_mut(i) {
