@@ -7,8 +7,8 @@
 // is appended to `log` when one is given (for undo and dirty tracking; reusing its capacity, no
 // allocation). Removed volume is measured exactly as LevelSet::volume measures: the smoothed
 // Heaviside with its curvature correction, evaluated before and after on every voxel whose value or
-// Laplacian changed. Cost: one cached accessor lookup per voxel within the tool's band plus one
-// voxel; voxels farther outside the tool are skipped without touching the tree.
+// Laplacian changed. Cost: one accessor probe per leaf block of the box and one buffer read per
+// voxel within the tool's band plus one voxel; voxels farther outside the tool are not read.
 #include <limits>
 
 #include "impl.h"
@@ -30,12 +30,21 @@ struct Box {
 }  // namespace
 
 CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
-                       std::array<uint32_t, 3> dims, rust::Slice<const float> tool, float offset,
+                       std::array<uint32_t, 3> dims, rust::Slice<const float> tool,
+                       rust::Slice<const uint32_t> spans, float offset,
                        rust::Vec<VoxelChange>* log) {
   const size_t expected = size_t(dims[0]) * dims[1] * dims[2];
   if (tool.size() != expected)
     throw std::invalid_argument("tool patch holds " + std::to_string(tool.size()) +
                                 " values, its dimensions need " + std::to_string(expected));
+  const size_t rows = size_t(dims[1]) * dims[2];
+  if (!spans.empty() && spans.size() != 2 * rows)
+    throw std::invalid_argument("tool patch has " + std::to_string(spans.size() / 2) +
+                                " row spans for " + std::to_string(rows) + " rows");
+  const uint32_t* sp = spans.empty() ? nullptr : spans.data();
+  for (size_t r = 0; sp && r < rows; ++r)
+    if (sp[2 * r] > sp[2 * r + 1] || sp[2 * r + 1] > dims[0])
+      throw std::invalid_argument("tool patch row span " + std::to_string(r) + " is not within its row");
   if (!std::isfinite(offset)) throw std::invalid_argument("tool offset is not finite");
   auto& grid = *impl.grid;
   const float* tp = tool.data();  // rust::Slice indexing calls out of line per element
@@ -47,81 +56,100 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   if (before.size() < expected) {  // grows once to the largest patch, then reused
     before.resize(expected);
   }
+  float* old_values = before.data();
   openvdb::tree::ValueAccessor<FloatTree, false> acc(grid.tree());
   CutStats stats{0, 0.0};
   const Box box{index_min, dims};
   using Leaf = FloatTree::LeafNodeType;
   constexpr int L = int(Leaf::DIM);
+  constexpr int LOG2 = int(Leaf::LOG2DIM);
   auto floor_to_leaf = [](int v) { return v & ~(L - 1); };
   const int hi[3] = {index_min[0] + int(dims[0]) - 1, index_min[1] + int(dims[1]) - 1,
                      index_min[2] + int(dims[2]) - 1};
-  // Pass 1, leaf block by leaf block: blocks in an outside tile cannot change and are skipped
-  // after one probe (their voxels are left unread: pass 2 never needs them, see below); voxels in
-  // a leaf are read directly from it.
+  // Pass 1, row by row within each row's span: voxels the tool reaches (within the band plus
+  // one voxel) have their old value kept in `before` and are raised where the tool is deeper.
+  // Each leaf block of the box is probed once up front; a row segment is then read through a
+  // pointer stepping along x in the leaf's buffer (z is its fastest axis), or standing on the
+  // tile value of a block without a leaf. An outside tile cannot change: its voxels just take
+  // the tile value in `before`, for pass 2.
   auto& changed = impl.scratch_changed;
   changed.clear();
-  auto& blocks = impl.scratch_blocks;  // 1 = the block was read, per leaf block of the box
-  const int nb_x = (hi[0] - floor_to_leaf(index_min[0])) / L + 1;
-  const int nb_y = (hi[1] - floor_to_leaf(index_min[1])) / L + 1;
-  const int nb_z = (hi[2] - floor_to_leaf(index_min[2])) / L + 1;
-  if (blocks.size() < size_t(nb_x) * nb_y * nb_z) blocks.resize(size_t(nb_x) * nb_y * nb_z);
   const int fx = floor_to_leaf(index_min[0]), fy = floor_to_leaf(index_min[1]),
             fz = floor_to_leaf(index_min[2]);
-  auto block_of = [&](int x, int y, int z) {  // x, y, z >= the floored box origin
-    return size_t(unsigned(x - fx) / L) +
-           size_t(nb_x) * (size_t(unsigned(y - fy) / L) + size_t(nb_y) * size_t(unsigned(z - fz) / L));
-  };
-  for (int bx = floor_to_leaf(index_min[0]); bx <= hi[0]; bx += L)
-    for (int by = floor_to_leaf(index_min[1]); by <= hi[1]; by += L)
-      for (int bz = floor_to_leaf(index_min[2]); bz <= hi[2]; bz += L) {
-        const Coord origin(bx, by, bz);
-        Leaf* leaf = acc.probeLeaf(origin);
-        const float tile = leaf ? 0.f : acc.getValue(origin);
-        const bool skip = !leaf && !(tile < bg);
-        blocks[block_of(bx, by, bz)] = skip ? 0 : 1;
-        if (skip) continue;
-        const int x0 = std::max(bx, index_min[0]), x1 = std::min(bx + L - 1, hi[0]);
-        const int y0 = std::max(by, index_min[1]), y1 = std::min(by + L - 1, hi[1]);
-        const int z0 = std::max(bz, index_min[2]), z1 = std::min(bz + L - 1, hi[2]);
-        for (int z = z0; z <= z1; ++z)
-          for (int y = y0; y <= y1; ++y) {
-            size_t n = box.index(x0 - index_min[0], y - index_min[1], z - index_min[2]);
-            for (int x = x0; x <= x1; ++x, ++n) {
-              const float t = tp[n] + offset;
-              if (!(t < reach)) continue;  // unread; pass 2 knows it from the tool
-              const Coord c(x, y, z);
-              const float old = leaf ? leaf->getValue(c) : tile;
-              before[n] = old;
-              if (!(t < bg)) continue;
-              const float cut = -t;
-              const float now = cut < bg ? cut : bg;
-              if (!(now > old)) continue;
-              if (!leaf) leaf = acc.touchLeaf(origin);  // an inside tile becomes a leaf
-              if (cut < bg) {
-                leaf->setValueOn(c, cut);
-              } else {
-                leaf->setValueOff(c, bg);
-              }
-              changed.push_back(uint32_t(n));
-              stats.removed_volume += inside_fraction(old, eps) - inside_fraction(now, eps);
-              if (log) log->push_back(VoxelChange{c.x(), c.y(), c.z(), old});
-            }
-          }
+  const int nb_x = (hi[0] - fx) / L + 1, nb_y = (hi[1] - fy) / L + 1, nb_z = (hi[2] - fz) / L + 1;
+  auto& leaves = impl.scratch_leaves;
+  auto& tiles = impl.scratch_tiles;
+  leaves.resize(size_t(nb_x) * nb_y * nb_z);  // grows to the largest patch, then reused
+  tiles.resize(leaves.size());
+  for (int bz = 0; bz < nb_z; ++bz)
+    for (int by = 0; by < nb_y; ++by)
+      for (int bx = 0; bx < nb_x; ++bx) {
+        const Coord origin(fx + bx * L, fy + by * L, fz + bz * L);
+        const size_t b = size_t(bx) + size_t(nb_x) * (size_t(by) + size_t(nb_y) * size_t(bz));
+        leaves[b] = acc.probeLeaf(origin);
+        tiles[b] = leaves[b] ? 0.f : acc.getValue(origin);
       }
+  for (int k = 0; k < int(dims[2]); ++k)
+    for (int j = 0; j < int(dims[1]); ++j) {
+      const size_t r = size_t(j) + size_t(dims[1]) * size_t(k);
+      const int s0 = sp ? int(sp[2 * r]) : 0, s1 = sp ? int(sp[2 * r + 1]) : int(dims[0]);
+      const int y = index_min[1] + j, z = index_min[2] + k;
+      const size_t row_blocks = size_t(nb_x) * (size_t((y - fy) / L) + size_t(nb_y) * size_t((z - fz) / L));
+      const int yz = ((y & (L - 1)) << LOG2) | (z & (L - 1));
+      for (int xs = s0; xs < s1;) {
+        const int x = index_min[0] + xs;
+        const int xe = std::min(s1, xs + (L - (x & (L - 1))));  // end of this leaf block's part
+        const size_t b = row_blocks + size_t((x - fx) / L);
+        Leaf* leaf = leaves[b];
+        const float tile = tiles[b];
+        const size_t row = box.index(xs, j, k);
+        const int n = xe - xs;
+        const float* t_row = tp + row;
+        float* old_row = old_values + row;
+        xs = xe;
+        if (!leaf && !(tile < bg)) {
+          for (int i = 0; i < n; ++i) old_row[i] = tile;
+          continue;
+        }
+        const float* src = leaf ? leaf->buffer().data() + (((x & (L - 1)) << 2 * LOG2) | yz) : &tile;
+        ptrdiff_t stride = leaf ? L * L : 0;
+        for (int i = 0; i < n; ++i) {
+          const float t = t_row[i] + offset;
+          if (!(t < reach)) continue;  // unread; pass 2 knows it from the tool
+          const float old = src[i * stride];
+          old_row[i] = old;
+          if (!(t < bg)) continue;
+          const float now = -t < bg ? -t : bg;
+          if (!(now > old)) continue;
+          if (!leaf) {  // an inside tile becomes a leaf
+            leaf = leaves[b] = acc.touchLeaf(Coord(x & ~(L - 1), y & ~(L - 1), z & ~(L - 1)));
+            src = leaf->buffer().data() + (((x & (L - 1)) << 2 * LOG2) | yz);
+            stride = L * L;
+          }
+          const Coord c(x + i, y, z);
+          if (now < bg) {
+            leaf->setValueOn(c, now);
+          } else {
+            leaf->setValueOff(c, bg);
+          }
+          changed.push_back(uint32_t(row + i));
+          stats.removed_volume += inside_fraction(old, eps) - inside_fraction(now, eps);
+          if (log) log->push_back(VoxelChange{c.x(), c.y(), c.z(), old});
+        }
+      }
+    }
   stats.changed_voxels = changed.size();
   if (changed.empty()) return stats;
-  // Pass 2: the curvature term changes only at changed voxels and their six neighbours. Unread
-  // voxels (skipped outside blocks, or beyond the tool's reach) are unchanged; their value comes
-  // from the tree. The tool's cut-off margin keeps every changed voxel's neighbours in the box.
-  // Old and new value of a box voxel (box-relative i, j, k). A voxel was read in pass 1 iff its
-  // block was read and the tool reached it; its new value follows from the tool again.
-  auto value = [&](int i, int j, int k, float& o, float& w) {
-    if (box.contains(i, j, k) &&
-        blocks[block_of(index_min[0] + i, index_min[1] + j, index_min[2] + k)]) {
+  // Pass 2: the curvature term changes only at changed voxels and their six neighbours. Voxels
+  // the tool reaches have their old value in `before` and their new one follows from the tool
+  // again; every other voxel is unchanged and read from the tree (the tool's cut-off margin keeps
+  // every changed voxel's neighbours in the box; only their Laplacians may reach past it).
+  auto value = [&](int i, int j, int k, float& o, float& w) __attribute__((always_inline)) {
+    if (box.contains(i, j, k)) {
       const size_t m = box.index(i, j, k);
       const float t = tp[m] + offset;
       if (t < reach) {
-        o = before[m];
+        o = old_values[m];
         const float now = -t < bg ? -t : bg;
         w = t < bg && now > o ? now : o;
         return;
@@ -166,14 +194,14 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
 }
 
 CutStats LevelSet::subtract_dense(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
-                                  rust::Slice<const float> tool) {
-  return subtract_core(*impl, index_min, dims, tool, 0.f, nullptr);
+                                  rust::Slice<const float> tool, rust::Slice<const uint32_t> spans) {
+  return subtract_core(*impl, index_min, dims, tool, spans, 0.f, nullptr);
 }
 
 CutStats LevelSet::subtract_logged(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
-                                   rust::Slice<const float> tool, float offset,
-                                   rust::Vec<VoxelChange>& log) {
-  return subtract_core(*impl, index_min, dims, tool, offset, &log);
+                                   rust::Slice<const float> tool, rust::Slice<const uint32_t> spans,
+                                   float offset, rust::Vec<VoxelChange>& log) {
+  return subtract_core(*impl, index_min, dims, tool, spans, offset, &log);
 }
 
 // Dry run for rate-limited cutting: the volume each offset would remove (smoothed Heaviside only;

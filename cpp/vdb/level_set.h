@@ -39,9 +39,10 @@ public:
   // Volume enclosed (mm^3): smoothed Heaviside over every voxel and tile.
   double volume() const;
 
-  // Local cutting: v = max(v, -tool) over a dense patch of tool distances (x fastest).
+  // Local cutting: v = max(v, -tool) over a dense patch of tool distances (x fastest), read
+  // only within each row's span (see DensePatch::spans).
   CutStats subtract_dense(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
-                          rust::Slice<const float> tool);
+                          rust::Slice<const float> tool, rust::Slice<const uint32_t> spans);
 
   void csg_difference(const LevelSet& other);
   void csg_union(const LevelSet& other);
@@ -71,8 +72,8 @@ public:
 
   // Cutting with an undo log, rate limiting, journal replay, region reads (added for issue 4).
   CutStats subtract_logged(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
-                           rust::Slice<const float> tool, float offset,
-                           rust::Vec<VoxelChange>& log);
+                           rust::Slice<const float> tool, rust::Slice<const uint32_t> spans,
+                           float offset, rust::Vec<VoxelChange>& log);
   void removal_by_offset(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
                          rust::Slice<const float> tool, rust::Slice<const float> offsets,
                          rust::Slice<double> removed) const;

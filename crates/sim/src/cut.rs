@@ -6,8 +6,12 @@
 //! ([`crate::removal`]). The changed voxels' old values feed the undo journal ([`History`]) and
 //! the dirty-chunk set the mesher drains ([`DirtyLeaves`]). Once its buffers have grown to the
 //! largest stroke, [`Cutter::cut_with`] allocates nothing.
+//!
+//! A round burr's stroke ends in a ball every grid has lost. While no one else edits the grids
+//! (their stamps are the ones this cutter left), the next stroke skips the voxels that ball
+//! already took: a haptic tick's stroke overlaps the previous one almost wholly.
 use dentsim_vdb::VoxelChange;
-use glam::{DAffine3, IVec3};
+use glam::{DAffine3, DVec3, IVec3};
 use serde::Serialize;
 
 use crate::burr::Burr;
@@ -16,7 +20,7 @@ use crate::error::Result;
 use crate::history::History;
 use crate::model::TissueModel;
 use crate::removal::{pick_offset, Feed, RemovalBank, MAX_BANKED_S, OFFSET_SAMPLES};
-use crate::sweep::Sweep;
+use crate::sweep::{CutBall, Sweep};
 
 /// Volume each tissue lost to one stroke.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -62,6 +66,9 @@ pub struct Cutter {
     bank: RemovalBank,
     pub history: History,
     pub dirty: DirtyLeaves,
+    /// The ball the last stroke ended in and the grids' stamps it left (see the module notes).
+    done: Option<CutBall>,
+    done_stamps: Vec<u64>,
 }
 
 impl Cutter {
@@ -82,7 +89,8 @@ impl Cutter {
         self.report.reset_for(model);
         let Some(h) = model.voxel_size() else { return Ok(&self.report) };
         let band = model.tissues.iter().map(|t| f64::from(t.grid.background())).fold(0.0, f64::max);
-        self.sweep.build(burr, from, to, h, band)?;
+        let done = self.done.take().filter(|_| self.grids_as_left(model));
+        self.sweep.build(burr, from, to, h, band, done)?;
         self.report.substeps = self.sweep.substeps;
         let auto_stroke = !self.history.is_open();
         self.history.begin_stroke();
@@ -90,11 +98,25 @@ impl Cutter {
         if auto_stroke {
             self.history.end_stroke();
         }
-        result?;
+        let deepest_offset = result?;
+        if let Some(r) = burr.ball_radius() {
+            let radius = r - f64::from(deepest_offset);
+            if radius > 0.0 {
+                self.done = Some(CutBall { centre: to.transform_point3(DVec3::new(0.0, 0.0, burr.bound().0)), radius });
+                self.done_stamps.clear();
+                self.done_stamps.extend(model.tissues.iter().map(|t| t.grid.stamp()));
+            }
+        }
         Ok(&self.report)
     }
 
-    fn apply(&mut self, model: &mut TissueModel, h: f64, feed: Feed) -> Result<()> {
+    /// True when every grid is as this cutter's last stroke left it.
+    fn grids_as_left(&self, model: &TissueModel) -> bool {
+        self.done_stamps.len() == model.tissues.len() && model.tissues.iter().zip(&self.done_stamps).all(|(t, s)| t.grid.stamp() == *s)
+    }
+
+    /// Cuts every tissue; returns the largest tool offset a removal rate imposed (0 = whole tool).
+    fn apply(&mut self, model: &mut TissueModel, h: f64, feed: Feed) -> Result<f32> {
         let mut offsets = [0f32; OFFSET_SAMPLES];
         let mut removed = [0f64; OFFSET_SAMPLES];
         if feed != Feed::Geometric {
@@ -105,6 +127,7 @@ impl Cutter {
                 *o = depth * i as f32 / (OFFSET_SAMPLES - 1) as f32;
             }
         }
+        let mut deepest_offset = 0f32;
         for (t, tissue) in model.tissues.iter_mut().enumerate() {
             let mut offset = 0.0;
             let budget = feed.budget(tissue.props.removal_rate_mm3_per_n_s);
@@ -117,6 +140,7 @@ impl Cutter {
                     self.report.rate_limited = true;
                 }
             }
+            deepest_offset = deepest_offset.max(offset);
             self.log.clear();
             let stats = tissue.grid.subtract_logged(&self.sweep.patch, offset, &mut self.log)?;
             if let Some(b) = budget {
@@ -127,7 +151,7 @@ impl Cutter {
             self.report.removed_mm3[t].1 = stats.removed_mm3;
             self.report.changed_voxels += stats.changed_voxels;
         }
-        Ok(())
+        Ok(deepest_offset)
     }
 
     /// Groups the following cuts into one undoable stroke (e.g. while the pedal is down).

@@ -23,6 +23,19 @@ pub const GAP_VOXELS: f64 = 0.25;
 pub const MAX_SUBSTEPS: usize = 20_000;
 /// A stroke whose patch would exceed this many voxels (64 MiB of f32) is refused: split it.
 pub const MAX_PATCH_VOXELS: usize = 16 << 20;
+/// Margin (mm) of the already-cut test: a voxel the new stroke would cut at most this much deeper
+/// than the done ball did is left alone. Far above f32 rounding of the distances (~1e-7 mm), which
+/// would otherwise count the trailing half of every stroke as cut again; far below anything a cut
+/// resolves (2e-4 voxel at 0.05 mm).
+const DONE_SLACK: f32 = 1e-5;
+
+/// A ball (centre, radius in mm) every grid has already lost: `value ≥ min(radius − |p − centre|,
+/// background)` everywhere.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CutBall {
+    pub centre: DVec3,
+    pub radius: f64,
+}
 
 /// Reusable buffers for building swept patches; allocation-free once warmed up.
 #[derive(Default)]
@@ -52,8 +65,9 @@ pub fn rotation_of(pose: &DAffine3, what: &str) -> Result<DQuat> {
 }
 
 impl Sweep {
-    /// Fills `patch` with the swept head's signed distance over its box plus `band` mm.
-    pub fn build(&mut self, burr: &Burr, from: DAffine3, to: DAffine3, voxel: f64, band: f64) -> Result<()> {
+    /// Fills `patch` with the swept head's signed distance over its box plus `band` mm (the
+    /// largest background of the grids it will cut), skipping what `done` already removed.
+    pub fn build(&mut self, burr: &Burr, from: DAffine3, to: DAffine3, voxel: f64, band: f64, done: Option<CutBall>) -> Result<()> {
         let q0 = rotation_of(&from, "stroke start pose")?;
         let q1 = rotation_of(&to, "stroke end pose")?;
         let (t0, t1) = (from.translation, to.translation);
@@ -101,6 +115,8 @@ impl Sweep {
         }
         patch.values.clear();
         patch.values.resize(total, cutoff as f32);
+        patch.spans.clear();
+        patch.spans.resize(2 * dims.y as usize * dims.z as usize, 0);
         let ball = burr.ball_radius();
         let (nx, ny) = (dims.x as usize, dims.y as usize);
         for k in lo.z..=hi.z {
@@ -129,7 +145,8 @@ impl Sweep {
                 if i_lo > i_hi {
                     continue;
                 }
-                let row = nx * ((j - lo.y) as usize + ny * (k - lo.z) as usize);
+                let row_index = (j - lo.y) as usize + ny * (k - lo.z) as usize;
+                let row = nx * row_index;
                 let out = &mut patch.values[row + (i_lo - lo.x) as usize..=row + (i_hi - lo.x) as usize];
                 match ball {
                     // One straight segment (no rotation): the capsule, x stepping along the row.
@@ -141,10 +158,15 @@ impl Sweep {
                         let (dy, dz) = ((y - a.y) as f32, (z - a.z) as f32);
                         let (r, cutoff, h) = (r as f32, cutoff as f32, voxel as f32);
                         let x0 = (f64::from(i_lo) * voxel - a.x) as f32;
+                        let done = done.map(|d| ((d.centre - a).as_vec3(), d.radius as f32));
                         for (n, v) in out.iter_mut().enumerate() {
                             let p = glam::Vec3::new(x0 + n as f32 * h, dy, dz);
                             let t = (p.dot(ab) * inv).clamp(0.0, 1.0);
-                            *v = ((p - ab * t).length() - r).min(cutoff);
+                            let d = ((p - ab * t).length() - r).min(cutoff);
+                            *v = match done {
+                                Some((c, rc)) => unless_done(d, (p - c).length() - rc, band as f32, cutoff),
+                                None => d,
+                            };
                         }
                     }
                     Some(r) => {
@@ -154,7 +176,10 @@ impl Sweep {
                             for w in self.centres.windows(2) {
                                 best = best.min(segment_distance(p, w[0], w[1]) - r);
                             }
-                            *v = best as f32;
+                            *v = match done {
+                                Some(d) => unless_done(best as f32, ((p - d.centre).length() - d.radius) as f32, band as f32, cutoff as f32),
+                                None => best as f32,
+                            };
                         }
                     }
                     None => {
@@ -167,13 +192,33 @@ impl Sweep {
                                 }
                                 best = best.min(burr.sdf(inv.transform_point3(p)));
                             }
-                            *v = best as f32;
+                            *v = match done {
+                                Some(d) => unless_done(best as f32, ((p - d.centre).length() - d.radius) as f32, band as f32, cutoff as f32),
+                                None => best as f32,
+                            };
                         }
                     }
+                }
+                let below = |v: &f32| *v < cutoff as f32;
+                if let (Some(first), Some(last)) = (out.iter().position(below), out.iter().rposition(below)) {
+                    let start = (i_lo - lo.x) as u32;
+                    patch.spans[2 * row_index] = start + first as u32;
+                    patch.spans[2 * row_index + 1] = start + last as u32 + 1;
                 }
             }
         }
         Ok(())
+    }
+}
+
+/// The tool's distance `d` at a voxel, or `cutoff` (no change) when the ball already cut there
+/// (at distance `d_done`) went at least as deep, or beyond the band, where values saturate.
+#[inline]
+fn unless_done(d: f32, d_done: f32, band: f32, cutoff: f32) -> f32 {
+    if d >= d_done - DONE_SLACK || d_done <= -band - DONE_SLACK {
+        cutoff
+    } else {
+        d
     }
 }
 

@@ -184,3 +184,48 @@ fn bad_poses_are_refused_naming_the_pose() {
     assert!(Burr::parse("806 314 777 524 010").unwrap_err().to_string().contains("'777'"));
     let _ = Shape::ALL;
 }
+
+/// Ticks that continue the previous stroke skip what its end ball already took; the grids and
+/// removed volumes must match cutting every tick from scratch (a fresh cutter per tick never
+/// skips), to the skip's 1e-5 mm margin.
+#[test]
+fn continued_strokes_match_strokes_cut_from_scratch() {
+    let burr = Burr::round(1.0).unwrap();
+    let (lo, n) = (IVec3::new(-40, -20, 60), 60);
+    // A curved, descending path of 0.02-0.04 mm ticks, as a haptic session produces.
+    let tip = |i: usize| {
+        let s = i as f64 * 0.03;
+        at(-1.2 + s, 0.4 * (s * 2.0).sin(), 4.6 - 0.15 * s)
+    };
+    let mut skipping = tooth(0.05);
+    let mut fresh = skipping.clone();
+    let mut cutter = Cutter::default();
+    let mut total = 0.0;
+    for i in 0..60 {
+        let a = cutter.cut_with(&mut skipping, &burr, tip(i), tip(i + 1), Feed::Geometric).unwrap().total_mm3();
+        let b = Cutter::default().cut(&mut fresh, &burr, tip(i), tip(i + 1)).unwrap().total_mm3();
+        assert!((a - b).abs() <= 1e-6 + 1e-4 * b, "tick {i}: removed {a} vs {b} mm3");
+        total += a;
+    }
+    assert!(total > 0.2, "the path cuts into the tooth ({total} mm3)");
+    let (ours, theirs) = (values(&skipping, lo, n), values(&fresh, lo, n));
+    let worst = ours.iter().flatten().zip(theirs.iter().flatten()).map(|(a, b)| (a - b).abs()).fold(0f32, f32::max);
+    assert!(worst <= 2e-5, "largest voxel difference {worst} mm");
+    assert!(skipping.tissues[0].grid.volume() < fresh.tissues[0].grid.volume() + 1e-3);
+}
+
+/// Anything that edits the grids between strokes (here an undo) makes the next stroke cut its
+/// start ball again instead of trusting the last one.
+#[test]
+fn an_edit_between_strokes_stops_the_skip() {
+    let burr = Burr::round(1.0).unwrap();
+    let mut model = tooth(0.05);
+    let mut cutter = Cutter::default();
+    cutter.cut(&mut model, &burr, at(-1.0, 0.0, 4.5), at(-0.5, 0.0, 4.5)).unwrap();
+    assert!(cutter.undo(&mut model));
+    let again = cutter.cut(&mut model, &burr, at(-0.5, 0.0, 4.5), at(-0.48, 0.0, 4.5)).unwrap().total_mm3();
+    let mut reference = tooth(0.05);
+    let expected = Cutter::default().cut(&mut reference, &burr, at(-0.5, 0.0, 4.5), at(-0.48, 0.0, 4.5)).unwrap().total_mm3();
+    assert!(expected > 0.1, "the stroke cuts a whole ball ({expected} mm3)");
+    assert!((again - expected).abs() < 1e-9 + 1e-6 * expected, "after undo: {again} vs {expected} mm3");
+}

@@ -51,7 +51,7 @@ fn ball_patch(grid: &LevelSet, a: DVec3, b: DVec3, r: f64) -> DensePatch {
             }
         }
     }
-    DensePatch { index_min: lo, dims: (hi - lo + IVec3::ONE).as_uvec3().to_array(), values }
+    DensePatch { index_min: lo, dims: (hi - lo + IVec3::ONE).as_uvec3().to_array(), values, spans: Vec::new() }
 }
 
 fn stroke_cut(c: &mut Criterion) {

@@ -1,4 +1,6 @@
 use std::marker::PhantomData;
+use std::pin::Pin;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 use cxx::UniquePtr;
 use glam::{DVec3, IVec3, Vec3};
@@ -12,6 +14,14 @@ use crate::LEAF_DIM;
 /// A narrow-band level set: `FloatGrid` of class level set, background = half width in mm.
 pub struct LevelSet {
     inner: UniquePtr<ffi::LevelSet>,
+    /// See [`LevelSet::stamp`].
+    stamp: u64,
+}
+
+static NEXT_STAMP: AtomicU64 = AtomicU64::new(1);
+
+fn fresh_stamp() -> u64 {
+    NEXT_STAMP.fetch_add(1, Ordering::Relaxed)
 }
 
 /// An inclusive box of voxel indices.
@@ -27,6 +37,10 @@ pub struct DensePatch {
     pub index_min: IVec3,
     pub dims: [u32; 3],
     pub values: Vec<f32>,
+    /// Per row (`j + ny·k`), the x range `[start, end)` outside which every value is at least the
+    /// cut grid's background plus 1.5 voxels (a cut neither changes nor reads those voxels),
+    /// flattened; empty for whole rows.
+    pub spans: Vec<u32>,
 }
 
 /// A scalar volume on a regular grid: value `n = i + nx * (j + ny * k)` sits at
@@ -158,11 +172,11 @@ impl LevelSet {
 
     fn wrap(made: Result<UniquePtr<ffi::LevelSet>, cxx::Exception>, op: &'static str) -> Result<Self> {
         let inner = made.map_err(openvdb(op))?;
-        Ok(LevelSet { inner })
+        Ok(LevelSet { inner, stamp: fresh_stamp() })
     }
 
     pub(crate) fn from_inner(inner: UniquePtr<ffi::LevelSet>) -> Self {
-        LevelSet { inner }
+        LevelSet { inner, stamp: fresh_stamp() }
     }
 
     pub(crate) fn inner(&self) -> &ffi::LevelSet {
@@ -222,6 +236,19 @@ impl LevelSet {
         self.inner.volume()
     }
 
+    /// A number that changes whenever the grid's values may have changed, and that no other grid
+    /// (clones included) ever shares: whoever saw a stamp after editing the grid knows, seeing
+    /// it again, that nothing touched the grid since.
+    pub fn stamp(&self) -> u64 {
+        self.stamp
+    }
+
+    /// The C++ grid for a call that may change its values.
+    fn edit(&mut self) -> Pin<&mut ffi::LevelSet> {
+        self.stamp = fresh_stamp();
+        self.inner.pin_mut()
+    }
+
     /// A reader for one thread; the grid cannot change while it lives.
     pub fn reader(&self) -> Reader<'_> {
         Reader { inner: ffi::new_reader(&self.inner), _grid: PhantomData }
@@ -230,9 +257,8 @@ impl LevelSet {
     /// Local CSG difference: every voxel of the patch takes `max(value, -tool)`.
     pub fn subtract(&mut self, patch: &DensePatch) -> Result<CutStats> {
         let s = self
-            .inner
-            .pin_mut()
-            .subtract_dense(patch.index_min.to_array(), patch.dims, &patch.values)
+            .edit()
+            .subtract_dense(patch.index_min.to_array(), patch.dims, &patch.values, &patch.spans)
             .map_err(openvdb("subtract tool patch"))?;
         Ok(CutStats { changed_voxels: s.changed_voxels, removed_mm3: s.removed_volume })
     }
@@ -242,9 +268,8 @@ impl LevelSet {
     /// reused: no allocation once it is large enough).
     pub fn subtract_logged(&mut self, patch: &DensePatch, offset: f32, log: &mut Vec<VoxelChange>) -> Result<CutStats> {
         let s = self
-            .inner
-            .pin_mut()
-            .subtract_logged(patch.index_min.to_array(), patch.dims, &patch.values, offset, log)
+            .edit()
+            .subtract_logged(patch.index_min.to_array(), patch.dims, &patch.values, &patch.spans, offset, log)
             .map_err(openvdb("subtract tool patch"))?;
         Ok(CutStats { changed_voxels: s.changed_voxels, removed_mm3: s.removed_volume })
     }
@@ -258,7 +283,7 @@ impl LevelSet {
 
     /// Writes voxel values back (active inside the band, off at ±background outside it).
     pub fn write_voxels(&mut self, changes: &[VoxelChange]) {
-        self.inner.pin_mut().write_voxels(changes);
+        self.edit().write_voxels(changes);
     }
 
     /// Fills each entry's `value` with the grid's current value at its voxel.
@@ -278,15 +303,15 @@ impl LevelSet {
 
     /// OpenVDB's `csgDifference` (the other grid is copied, not emptied).
     pub fn csg_difference(&mut self, other: &LevelSet) -> Result<()> {
-        self.inner.pin_mut().csg_difference(&other.inner).map_err(openvdb("CSG difference"))
+        self.edit().csg_difference(&other.inner).map_err(openvdb("CSG difference"))
     }
 
     pub fn csg_union(&mut self, other: &LevelSet) -> Result<()> {
-        self.inner.pin_mut().csg_union(&other.inner).map_err(openvdb("CSG union"))
+        self.edit().csg_union(&other.inner).map_err(openvdb("CSG union"))
     }
 
     pub fn csg_intersection(&mut self, other: &LevelSet) -> Result<()> {
-        self.inner.pin_mut().csg_intersection(&other.inner).map_err(openvdb("CSG intersection"))
+        self.edit().csg_intersection(&other.inner).map_err(openvdb("CSG intersection"))
     }
 
     /// The zero iso-surface as triangles with outward normals (OpenVDB's `volumeToMesh`).
@@ -352,8 +377,7 @@ impl LevelSet {
 
     /// Benchmark peer: `createLevelSetSphere` + `csgDifference`, the usual per-stroke cut.
     pub fn peer_sphere_cut(&mut self, center: DVec3, radius: f64) -> Result<()> {
-        self.inner
-            .pin_mut()
+        self.edit()
             .peer_sphere_cut(center.to_array(), radius)
             .map_err(openvdb("peer sphere cut"))
     }
@@ -367,7 +391,7 @@ impl LevelSet {
 impl Clone for LevelSet {
     /// OpenVDB's `deepCopy`.
     fn clone(&self) -> Self {
-        LevelSet { inner: self.inner.deep_copy() }
+        LevelSet { inner: self.inner.deep_copy(), stamp: fresh_stamp() }
     }
 }
 

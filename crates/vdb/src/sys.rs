@@ -72,6 +72,7 @@ pub(crate) mod ffi {
             index_min: [i32; 3],
             dims: [u32; 3],
             tool: &[f32],
+            spans: &[u32],
         ) -> Result<CutStats>;
         fn csg_difference(self: Pin<&mut LevelSet>, other: &LevelSet) -> Result<()>;
         fn csg_union(self: Pin<&mut LevelSet>, other: &LevelSet) -> Result<()>;
@@ -102,6 +103,7 @@ pub(crate) mod ffi {
             index_min: [i32; 3],
             dims: [u32; 3],
             tool: &[f32],
+            spans: &[u32],
             offset: f32,
             log: &mut Vec<VoxelChange>,
         ) -> Result<CutStats>;

@@ -83,7 +83,7 @@ fn local_subtract_removes_a_ball() {
             }
         }
     }
-    let stats = block.subtract(&DensePatch { index_min: lo, dims, values }).unwrap();
+    let stats = block.subtract(&DensePatch { index_min: lo, dims, values, spans: Vec::new() }).unwrap();
     let after = block.volume();
     let expected = 2.0 / 3.0 * PI * r.powi(3);
     assert!(stats.changed_voxels > 0);

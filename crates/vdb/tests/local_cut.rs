@@ -24,7 +24,7 @@ fn tool(c: DVec3, r: f64) -> DensePatch {
             }
         }
     }
-    DensePatch { index_min: lo, dims: dims.to_array(), values }
+    DensePatch { index_min: lo, dims: dims.to_array(), values, spans: Vec::new() }
 }
 
 #[test]
