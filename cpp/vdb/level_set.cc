@@ -88,6 +88,31 @@ void LevelSet::finish_build() {
   openvdb::tools::pruneLevelSet(impl->grid->tree());
 }
 
+// 2^21 leaves hold 4 GiB of values: far beyond a tooth (~15 k leaves at 0.05 mm).
+constexpr uint64_t kMaxVoxelizedLeaves = 1u << 21;
+
+void LevelSet::voxelize_inside() {
+  auto& tree = impl->grid->tree();
+  constexpr int L = int(FloatTree::LeafNodeType::DIM);
+  std::vector<Coord> origins;  // the tree cannot change under its iterator
+  for (auto it = tree.cbeginValueOff(); it; ++it) {
+    if (it.isVoxelValue() || !(*it < 0.f)) continue;
+    openvdb::CoordBBox box;
+    it.getBoundingBox(box);
+    if (origins.size() + box.volume() / (L * L * L) > kMaxVoxelizedLeaves)
+      throw std::invalid_argument("the inside of grid '" + impl->grid->getName() +
+                                  "' is too large to turn into leaves (over " +
+                                  std::to_string(kMaxVoxelizedLeaves) + " leaves)");
+    for (int x = box.min().x(); x <= box.max().x(); x += L)
+      for (int y = box.min().y(); y <= box.max().y(); y += L)
+        for (int z = box.min().z(); z <= box.max().z(); z += L) origins.emplace_back(x, y, z);
+  }
+  openvdb::tree::ValueAccessor<FloatTree, false> acc(tree);
+  for (const Coord& o : origins) acc.touchLeaf(o);
+}
+
+void LevelSet::prune() { openvdb::tools::pruneLevelSet(impl->grid->tree()); }
+
 double LevelSet::volume() const {
   const double h = voxel_size();
   const double eps = 1.5 * h;

@@ -38,6 +38,9 @@ public:
 
   // Volume enclosed (mm^3): smoothed Heaviside over every voxel and tile.
   double volume() const;
+  // Inside tiles become leaves (inactive, -background), so cuts never allocate; prune undoes it.
+  void voxelize_inside();
+  void prune();
 
   // Local cutting: v = max(v, -tool) over a dense patch of tool distances (x fastest), read
   // only within each row's span (see DensePatch::spans).

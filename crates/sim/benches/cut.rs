@@ -18,6 +18,7 @@ fn ticks(c: &mut Criterion) {
     for spec in ["round:1.0", "cylinder_round:1.0:3", "flame_016"] {
         let burr = Burr::parse(spec).unwrap();
         let mut m = model.clone();
+        m.voxelize_for_cutting().unwrap();
         let mut cutter = Cutter::default();
         let mut i = 0;
         c.bench_function(&format!("cut tick {spec}"), |b| {

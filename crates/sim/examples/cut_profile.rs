@@ -22,6 +22,7 @@ fn main() {
     let mut voxels = 0u64;
     for _ in 0..rounds {
         let mut m = model.clone();
+        m.voxelize_for_cutting().unwrap();
         let mut cutter = Cutter::default();
         cutter.cut_with(&mut m.clone(), &burr, tip(0), tip(1), Feed::Geometric).unwrap();
         for (i, b) in best.iter_mut().enumerate() {

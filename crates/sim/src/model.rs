@@ -32,6 +32,17 @@ impl TissueModel {
         self.tissues.first().map(|t| t.grid.voxel_size())
     }
 
+    /// Readies every grid for cutting without allocation (see [`LevelSet::voxelize_inside`]);
+    /// values are unchanged. [`compact`](Self::compact) takes the spare leaves back.
+    pub fn voxelize_for_cutting(&mut self) -> Result<()> {
+        self.tissues.iter_mut().try_for_each(|t| t.grid.voxelize_inside().map_err(Into::into))
+    }
+
+    /// Collapses uniform inactive leaves into tiles (OpenVDB's `pruneLevelSet`).
+    pub fn compact(&mut self) {
+        self.tissues.iter_mut().for_each(|t| t.grid.prune());
+    }
+
     /// Adds a tissue; its grid is renamed after it.
     pub fn push(&mut self, props: TissueProps, mut grid: LevelSet) -> Result<()> {
         if let Some(h) = self.voxel_size() {

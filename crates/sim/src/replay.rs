@@ -50,6 +50,8 @@ pub fn replay_with_progress(log: &SessionLog, mut model: TissueModel, progress: 
         }
     }
     let mut core = HapticCore::new(log.header.params.clone(), &model)?;
+    // As the session did, so the trees (not only the values) come out the same.
+    model.voxelize_for_cutting()?;
     let mut max_diff = 0.0f64;
     let mut forces = Vec::with_capacity(log.records.len());
     let total = log.records.len().max(1) as f64;
@@ -62,6 +64,7 @@ pub fn replay_with_progress(log: &SessionLog, mut model: TissueModel, progress: 
         max_diff = max_diff.max((out.force - r.force).length());
         forces.push(ForceSample { t_s: r.t_s, force: r.force, tissue: r.tissue });
     }
+    model.compact();
     let removed_mm3 = names.into_iter().zip(core.removed_mm3.iter().copied()).collect();
     Ok(ReplayOutcome { model, forces, max_force_difference_n: max_diff, removed_mm3 })
 }

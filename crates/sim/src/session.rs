@@ -180,6 +180,9 @@ impl Session {
         };
         let mirror = options.mesher_hz.map(|hz| (model.clone(), hz));
         let burr = core.burr().clone();
+        // Leaves for the whole interior now, so the haptic thread's cuts never allocate them.
+        let mut model = model;
+        model.voxelize_for_cutting()?;
 
         let s = shared.clone();
         let n_tissues = names.len();
@@ -241,7 +244,8 @@ impl Session {
     pub fn stop(mut self) -> Result<SessionOutcome> {
         self.shared.stop.store(true, Ordering::Release);
         let joined = self.haptic.take().expect("haptic thread").join();
-        let (model, haptic) = joined.map_err(|_| invalid("haptic thread", "panicked"))?;
+        let (mut model, haptic) = joined.map_err(|_| invalid("haptic thread", "panicked"))?;
+        model.compact();
         let logger = self.logger.take().expect("logger thread").join().map_err(|_| invalid("logger thread", "panicked"))?;
         let mesher = match self.mesher.take() {
             Some(m) => Some(m.join().map_err(|_| invalid("mesher thread", "panicked"))?),

@@ -236,6 +236,18 @@ impl LevelSet {
         self.inner.volume()
     }
 
+    /// Turns the inside tiles into leaves (inactive, at −background) so that later cuts write
+    /// into existing leaves and never allocate (the haptic thread must not); the grid's values
+    /// do not change. Costs a leaf (≈2 KiB) per 8³ voxels of the interior.
+    pub fn voxelize_inside(&mut self) -> Result<()> {
+        self.edit().voxelize_inside().map_err(openvdb("voxelize inside tiles"))
+    }
+
+    /// OpenVDB's `pruneLevelSet`: uniform inactive leaves collapse back into tiles.
+    pub fn prune(&mut self) {
+        self.edit().prune();
+    }
+
     /// A number that changes whenever the grid's values may have changed, and that no other grid
     /// (clones included) ever shares: whoever saw a stamp after editing the grid knows, seeing
     /// it again, that nothing touched the grid since.

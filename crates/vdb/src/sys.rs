@@ -66,6 +66,8 @@ pub(crate) mod ffi {
         fn deep_copy(self: &LevelSet) -> UniquePtr<LevelSet>;
         fn set_leaf(self: Pin<&mut LevelSet>, origin: [i32; 3], values: &[f32]) -> Result<()>;
         fn finish_build(self: Pin<&mut LevelSet>);
+        fn voxelize_inside(self: Pin<&mut LevelSet>) -> Result<()>;
+        fn prune(self: Pin<&mut LevelSet>);
         fn volume(self: &LevelSet) -> f64;
         fn subtract_dense(
             self: Pin<&mut LevelSet>,
