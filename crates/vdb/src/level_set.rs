@@ -289,9 +289,9 @@ impl LevelSet {
         self.inner.pin_mut().csg_intersection(&other.inner).map_err(openvdb("CSG intersection"))
     }
 
-    /// Moves the surface along its normals by `distance` mm, outward when positive (OpenVDB's
-    /// `LevelSetFilter::offset`, which re-tracks the narrow band). A small offset changes the
-    /// enclosed volume by about surface area × distance.
+    /// Moves the surface along its normals by `distance` mm, outward when positive: within half a
+    /// voxel by shifting the values, beyond by OpenVDB's `LevelSetFilter::offset` (re-tracks the
+    /// narrow band). A small offset changes the enclosed volume by about area × distance.
     pub fn offset(&mut self, distance: f64) -> Result<()> {
         self.inner.pin_mut().offset(distance).map_err(openvdb("level set offset"))
     }

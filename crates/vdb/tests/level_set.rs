@@ -115,7 +115,7 @@ fn csg_difference_agrees_with_local_subtract() {
 #[test]
 fn offset_moves_the_surface_along_its_normals() {
     let r = 1.0;
-    for d in [0.02, -0.03, 0.12] {
+    for d in [0.01, -0.02, -0.03, 0.12] {
         let mut ls = sphere(DVec3::ZERO, r);
         ls.offset(d).unwrap();
         let mut reader = ls.reader();
