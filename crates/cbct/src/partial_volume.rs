@@ -67,7 +67,8 @@ pub fn enclosed_volume(vol: &Volume, labels: &LabelVolume, tissue: Label, surrou
     let surround_grey = if shell.len() >= MIN_REFERENCE_VOXELS { median(shell) } else { cal.peak(surround) };
     let contrast = surround_grey - tissue_grey;
     // Apart by less than a percent of the surround's grey, fractions would be noise.
-    if !(contrast.abs() > 0.01 * surround_grey.abs().max(1.0)) {
+    let apart = contrast.abs() > 0.01 * surround_grey.abs().max(1.0);
+    if !apart {
         return None;
     }
     let band = BAND_VOXELS * h;
@@ -210,7 +211,7 @@ mod tests {
         }
         let d = distance_mm(dims, spacing, &seed);
         let pos = |n: usize| [(n % 9) as f64 * spacing[0], ((n / 9) % 7) as f64 * spacing[1], (n / 63) as f64 * spacing[2]];
-        for n in 0..seed.len() {
+        for (n, &dn) in d.iter().enumerate() {
             let brute = (0..seed.len())
                 .filter(|&m| seed[m])
                 .map(|m| {
@@ -218,7 +219,7 @@ mod tests {
                     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
                 })
                 .fold(f64::INFINITY, f64::min);
-            assert!((f64::from(d[n]) - brute).abs() < 1e-5, "voxel {n}: {} vs {brute}", d[n]);
+            assert!((f64::from(dn) - brute).abs() < 1e-5, "voxel {n}: {dn} vs {brute}");
         }
         assert!(distance_mm(dims, spacing, &vec![false; seed.len()]).iter().all(|v| v.is_infinite()));
     }

@@ -234,7 +234,7 @@ impl NestedBuilder<'_> {
             return Ok(None);
         };
         let area = grid.to_mesh().area();
-        if !(area > 0.0) {
+        if !area.is_finite() || area <= 0.0 {
             return Ok(None);
         }
         let limit = 0.5 * self.scan.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
