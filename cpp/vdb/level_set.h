@@ -50,6 +50,8 @@ public:
   void csg_difference(const LevelSet& other);
   void csg_union(const LevelSet& other);
   void csg_intersection(const LevelSet& other);
+  // Moves the surface along its normals by `distance` mm, outward when positive (offset.cc).
+  void offset(double distance);
 
   MeshBuffers to_mesh() const;
 

@@ -1,8 +1,8 @@
 // Compiles cpp/vdb against Debian's OpenVDB 10 (see REFERENCE.md "Building on Debian 12").
 use std::path::Path;
 
-const SOURCES: [&str; 7] =
-    ["level_set.cc", "reader.cc", "cut.cc", "mesh.cc", "files.cc", "peer.cc", "sample.cc"];
+const SOURCES: [&str; 8] =
+    ["level_set.cc", "reader.cc", "cut.cc", "mesh.cc", "files.cc", "peer.cc", "sample.cc", "offset.cc"];
 
 fn main() {
     let cpp = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../cpp");

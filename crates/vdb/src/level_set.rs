@@ -326,6 +326,13 @@ impl LevelSet {
         self.edit().csg_intersection(&other.inner).map_err(openvdb("CSG intersection"))
     }
 
+    /// Moves the surface along its normals by `distance` mm, outward when positive: within half a
+    /// voxel by shifting the values, beyond by OpenVDB's `LevelSetFilter::offset` (re-tracks the
+    /// narrow band). A small offset changes the enclosed volume by about area × distance.
+    pub fn offset(&mut self, distance: f64) -> Result<()> {
+        self.inner.pin_mut().offset(distance).map_err(openvdb("level set offset"))
+    }
+
     /// The zero iso-surface as triangles with outward normals (OpenVDB's `volumeToMesh`).
     pub fn to_mesh(&self) -> TriMesh {
         TriMesh::from_buffers(self.inner.to_mesh())

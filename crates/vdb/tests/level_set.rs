@@ -113,6 +113,21 @@ fn csg_difference_agrees_with_local_subtract() {
 }
 
 #[test]
+fn offset_moves_the_surface_along_its_normals() {
+    let r = 1.0;
+    for d in [0.01, -0.02, -0.03, 0.12] {
+        let mut ls = sphere(DVec3::ZERO, r);
+        ls.offset(d).unwrap();
+        let mut reader = ls.reader();
+        let v = f64::from(reader.value(DVec3::new(r + d, 0.0, 0.0)));
+        assert!(v.abs() < 0.1 * H, "offset {d}: sdf on the new surface {v}");
+        let expected = 4.0 / 3.0 * PI * (r + d).powi(3);
+        assert!((ls.volume() / expected - 1.0).abs() < 0.005, "offset {d}: {} vs {expected}", ls.volume());
+    }
+    assert!(sphere(DVec3::ZERO, r).offset(f64::NAN).is_err());
+}
+
+#[test]
 fn mismatched_transforms_are_refused() {
     let mut a = sphere(DVec3::ZERO, 1.0);
     let b = LevelSet::sphere(DVec3::ZERO, 1.0, 0.1, HALF_WIDTH).unwrap();

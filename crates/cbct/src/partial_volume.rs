@@ -1,0 +1,226 @@
+//! Partial-volume measure of a tissue enclosed by another (the pulp in the dentin).
+//!
+//! A voxel's grey value mixes the grey values of the tissues in its footprint in proportion to
+//! their share of it, and the scanner's point spread moves grey between voxels without changing
+//! its sum. So the volume of a tissue inside a surround is the sum, over the tissue's voxels and a
+//! band of surround around them, of `(g_surround − g) / (g_surround − g_tissue)`, however blurred
+//! the scan and however thin the tissue. A count of voxels past a threshold is not: wherever the
+//! tissue is curved on the scale of the blur (root canals 1.5–2.5 voxels wide, pulp horns), its
+//! midpoint contour lies inside the true surface; on the molar phantom the pulp's lies ~0.03 mm
+//! inside, 9 % of its volume.
+//!
+//! Inputs: scan, labels, the tissue and its surround, the calibration. The band is the surround
+//! within 3 voxels of the tissue, cut where any third label (enamel, bone, air) is nearer than the
+//! tissue, so that the third tissue's own blur stays out of the sum. Reference grey values: the
+//! surround's measured in the shell 4–8 voxels out; the tissue's where it is at least 3 voxels
+//! deep, else the calibration's (a thin pulp has no voxel free of the dentin's blur; its measured
+//! grey would be biased toward the dentin's and the volume with it). Noise averages out: the sum
+//! is not clamped to 0..1.
+//! Cost: three Euclidean distance transforms and a few linear passes over the (cropped) volume.
+
+use crate::calibrate::Calibration;
+use crate::volume::{LabelVolume, Volume};
+use crate::Label;
+use rayon::prelude::*;
+
+/// Band of surround summed around the tissue, in voxels.
+const BAND_VOXELS: f32 = 3.0;
+/// Depth (voxels) from which a tissue voxel counts as free of its surround's blur.
+const PURE_DEPTH_VOXELS: f32 = 3.0;
+/// Fewest voxels a measured reference grey value is taken from.
+const MIN_REFERENCE_VOXELS: usize = 64;
+
+/// The partial-volume measure of one tissue.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct PartialVolume {
+    pub volume_mm3: f64,
+    /// Grey value of the tissue itself and of its surround used for the fractions.
+    pub tissue_grey: f64,
+    pub surround_grey: f64,
+    /// Whether the tissue's grey value was measured (deep voxels) or the calibration's.
+    pub tissue_grey_measured: bool,
+    /// Voxels summed: the tissue's and its band's.
+    pub voxels: usize,
+}
+
+/// Volume of `tissue` by partial volume against `surround` (see the module comment); `None` when
+/// the labels hold no `tissue` or the two grey values are not apart.
+pub fn enclosed_volume(vol: &Volume, labels: &LabelVolume, tissue: Label, surround: Label, cal: &Calibration) -> Option<PartialVolume> {
+    let (t, s) = (tissue as u8, surround as u8);
+    if labels.labels.len() != vol.values.len() || !labels.labels.contains(&t) {
+        return None;
+    }
+    let h = (vol.spacing.iter().sum::<f64>() / 3.0) as f32;
+    let is_tissue: Vec<bool> = labels.labels.iter().map(|&l| l == t).collect();
+    let is_other: Vec<bool> = labels.labels.iter().map(|&l| l != t && l != s).collect();
+    let is_outside_tissue: Vec<bool> = is_tissue.iter().map(|&b| !b).collect();
+    let to_tissue = distance_mm(vol.dims, vol.spacing, &is_tissue);
+    let to_other = distance_mm(vol.dims, vol.spacing, &is_other);
+    let depth = distance_mm(vol.dims, vol.spacing, &is_outside_tissue);
+
+    let grey = |keep: &dyn Fn(usize) -> bool| -> Vec<f32> { (0..vol.values.len()).filter(|&n| keep(n)).map(|n| vol.values[n]).collect() };
+    let deep = grey(&|n| is_tissue[n] && depth[n] >= PURE_DEPTH_VOXELS * h);
+    let (tissue_grey, tissue_grey_measured) =
+        if deep.len() >= MIN_REFERENCE_VOXELS { (median(deep), true) } else { (cal.peak(tissue), false) };
+    let (shell_in, shell_out) = ((BAND_VOXELS + 1.0) * h, (BAND_VOXELS + 5.0) * h);
+    let shell = grey(&|n| labels.labels[n] == s && (shell_in..=shell_out).contains(&to_tissue[n]) && to_other[n] >= BAND_VOXELS * h);
+    let surround_grey = if shell.len() >= MIN_REFERENCE_VOXELS { median(shell) } else { cal.peak(surround) };
+    let contrast = surround_grey - tissue_grey;
+    // Apart by less than a percent of the surround's grey, fractions would be noise.
+    let apart = contrast.abs() > 0.01 * surround_grey.abs().max(1.0);
+    if !apart {
+        return None;
+    }
+    let band = BAND_VOXELS * h;
+    let (sum, voxels) = (0..vol.values.len())
+        .into_par_iter()
+        .filter(|&n| is_tissue[n] || (labels.labels[n] == s && to_tissue[n] <= band && to_tissue[n] < to_other[n]))
+        .map(|n| ((surround_grey - f64::from(vol.values[n])) / contrast, 1usize))
+        .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+    Some(PartialVolume { volume_mm3: sum * vol.voxel_volume_mm3(), tissue_grey, surround_grey, tissue_grey_measured, voxels })
+}
+
+fn median(mut v: Vec<f32>) -> f64 {
+    let m = v.len() / 2;
+    f64::from(*v.select_nth_unstable_by(m, |a, b| a.total_cmp(b)).1)
+}
+
+/// Euclidean distance (mm) from each voxel centre to the nearest `seed` voxel centre
+/// (`f32::INFINITY` without seeds): exact, separable (Felzenszwalb & Huttenlocher), linear cost.
+pub fn distance_mm(dims: [usize; 3], spacing: [f64; 3], seed: &[bool]) -> Vec<f32> {
+    let [nx, ny, nz] = dims;
+    let mut d2: Vec<f64> = seed.iter().map(|&s| if s { 0.0 } else { f64::INFINITY }).collect();
+    for axis in 0..3 {
+        let (n, stride) = [(nx, 1), (ny, nx), (nz, nx * ny)][axis];
+        if n == 0 {
+            return vec![f32::INFINITY; seed.len()];
+        }
+        let starts: Vec<usize> = match axis {
+            0 => (0..ny * nz).map(|l| l * nx).collect(),
+            1 => (0..nz).flat_map(|k| (0..nx).map(move |i| i + nx * ny * k)).collect(),
+            _ => (0..nx * ny).collect(),
+        };
+        let w = spacing[axis] * spacing[axis];
+        let lines: Vec<Vec<f64>> = starts
+            .par_iter()
+            .map(|&start| {
+                let f: Vec<f64> = (0..n).map(|q| d2[start + q * stride]).collect();
+                lower_envelope(&f, w)
+            })
+            .collect();
+        for (&start, line) in starts.iter().zip(lines) {
+            for (q, v) in line.into_iter().enumerate() {
+                d2[start + q * stride] = v;
+            }
+        }
+    }
+    d2.into_iter().map(|v| v.sqrt() as f32).collect()
+}
+
+/// min over p of f(p) + w·(q − p)² for every q: the lower envelope of parabolas.
+fn lower_envelope(f: &[f64], w: f64) -> Vec<f64> {
+    let n = f.len();
+    let sites: Vec<usize> = (0..n).filter(|&q| f[q].is_finite()).collect();
+    if sites.is_empty() {
+        return vec![f64::INFINITY; n];
+    }
+    let cross = |p: usize, q: usize| ((f[q] + w * (q * q) as f64) - (f[p] + w * (p * p) as f64)) / (2.0 * w * (q as f64 - p as f64));
+    let mut v: Vec<usize> = Vec::with_capacity(sites.len());
+    let mut z: Vec<f64> = Vec::with_capacity(sites.len() + 1);
+    z.push(f64::NEG_INFINITY);
+    for &q in &sites {
+        while let Some(&p) = v.last() {
+            if cross(p, q) <= z[v.len() - 1] {
+                v.pop();
+                z.pop();
+            } else {
+                break;
+            }
+        }
+        if let Some(&p) = v.last() {
+            z.push(cross(p, q));
+        }
+        v.push(q);
+    }
+    z.push(f64::INFINITY);
+    let mut out = vec![0.0; n];
+    let mut k = 0;
+    for (q, o) in out.iter_mut().enumerate() {
+        while z[k + 1] < q as f64 {
+            k += 1;
+        }
+        let p = v[k];
+        *o = f[p] + w * ((q as f64 - p as f64).powi(2));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::phantom::gaussian_blur;
+    use crate::volume::{SourceInfo, IDENTITY};
+
+    /// A canal 1.5 voxels in radius (a capsule) in dentin, voxel-averaged and blurred like a scan:
+    /// the midpoint threshold loses a good part of it, the partial-volume measure does not.
+    #[test]
+    fn a_thin_canal_keeps_its_volume() {
+        let (h, r, half_len) = (0.2, 0.3, 2.0);
+        let dims = [24, 24, 36];
+        let centre = [2.3, 2.4, 3.5];
+        let (dentin, pulp) = (2585.0f32, 1370.0f32);
+        let inside = |p: [f64; 3]| {
+            let z = (p[2] - centre[2]).clamp(-half_len, half_len);
+            (p[0] - centre[0]).powi(2) + (p[1] - centre[1]).powi(2) + (p[2] - centre[2] - z).powi(2) < r * r
+        };
+        let mut values = vec![0f32; dims[0] * dims[1] * dims[2]];
+        // The canal's volume as the voxels hold it (4³ samples each; within 1 % of π r² (2l + 4r/3)).
+        let mut truth = 0.0;
+        for (n, v) in values.iter_mut().enumerate() {
+            let ijk = [n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1])];
+            let mut share = 0.0;
+            for s in 0..64 {
+                let sub = [s % 4, (s / 4) % 4, s / 16].map(|q| (q as f64 + 0.5) / 4.0 - 0.5);
+                share += f32::from(u8::from(inside([0, 1, 2].map(|c| (ijk[c] as f64 + sub[c]) * h))));
+            }
+            truth += f64::from(share) / 64.0 * h * h * h;
+            *v = dentin + (pulp - dentin) * share / 64.0;
+        }
+        gaussian_blur(&mut values, dims, [0.75; 3]);
+        let vol = Volume { dims, spacing: [h; 3], origin: [0.0; 3], direction: IDENTITY, values, source: SourceInfo::default() };
+        let mut labels = vol.label_volume();
+        let mid = 0.5 * (dentin + pulp);
+        for (l, v) in labels.labels.iter_mut().zip(&vol.values) {
+            *l = if *v < mid { Label::Pulp } else { Label::Dentin } as u8;
+        }
+        let cal = Calibration::manual(&[(Label::Dentin, f64::from(dentin)), (Label::Pulp, f64::from(pulp))]).unwrap();
+        let counted = labels.count(Label::Pulp) as f64 * vol.voxel_volume_mm3();
+        let measure = enclosed_volume(&vol, &labels, Label::Pulp, Label::Dentin, &cal).unwrap();
+        assert!(!measure.tissue_grey_measured, "no voxel of a 0.3 mm canal is free of the blur");
+        assert!(counted / truth - 1.0 < -0.05, "the threshold loses the canal: {counted} vs {truth}");
+        assert!((measure.volume_mm3 / truth - 1.0).abs() < 0.005, "{} vs {truth}", measure.volume_mm3);
+    }
+
+    #[test]
+    fn distances_match_brute_force() {
+        let dims = [9, 7, 5];
+        let spacing = [0.2, 0.3, 0.25];
+        let mut seed = vec![false; 9 * 7 * 5];
+        for n in [3, 40, 100, 250, 314] {
+            seed[n] = true;
+        }
+        let d = distance_mm(dims, spacing, &seed);
+        let pos = |n: usize| [(n % 9) as f64 * spacing[0], ((n / 9) % 7) as f64 * spacing[1], (n / 63) as f64 * spacing[2]];
+        for (n, &dn) in d.iter().enumerate() {
+            let brute = (0..seed.len())
+                .filter(|&m| seed[m])
+                .map(|m| {
+                    let (a, b) = (pos(n), pos(m));
+                    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+                })
+                .fold(f64::INFINITY, f64::min);
+            assert!((f64::from(dn) - brute).abs() < 1e-5, "voxel {n}: {dn} vs {brute}");
+        }
+        assert!(distance_mm(dims, spacing, &vec![false; seed.len()]).iter().all(|v| v.is_infinite()));
+    }
+}
