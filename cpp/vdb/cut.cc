@@ -81,6 +81,7 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   auto& tiles = impl.scratch_tiles;
   leaves.resize(size_t(nb_x) * nb_y * nb_z);  // grows to the largest patch, then reused
   tiles.resize(leaves.size());
+  bool all_outside = true;
   for (int bz = 0; bz < nb_z; ++bz)
     for (int by = 0; by < nb_y; ++by)
       for (int bx = 0; bx < nb_x; ++bx) {
@@ -88,7 +89,9 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
         const size_t b = size_t(bx) + size_t(nb_x) * (size_t(by) + size_t(nb_y) * size_t(bz));
         leaves[b] = acc.probeLeaf(origin);
         tiles[b] = leaves[b] ? 0.f : acc.getValue(origin);
+        all_outside = all_outside && !leaves[b] && !(tiles[b] < bg);
       }
+  if (all_outside) return stats;  // the tool is nowhere near this tissue
   for (int k = 0; k < int(dims[2]); ++k)
     for (int j = 0; j < int(dims[1]); ++j) {
       const size_t r = size_t(j) + size_t(dims[1]) * size_t(k);

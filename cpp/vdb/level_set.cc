@@ -95,8 +95,10 @@ void LevelSet::voxelize_inside() {
   auto& tree = impl->grid->tree();
   constexpr int L = int(FloatTree::LeafNodeType::DIM);
   std::vector<Coord> origins;  // the tree cannot change under its iterator
-  for (auto it = tree.cbeginValueOff(); it; ++it) {
-    if (it.isVoxelValue() || !(*it < 0.f)) continue;
+  auto it = tree.cbeginValueOff();
+  it.setMaxDepth(FloatTree::ValueOffCIter::LEAF_DEPTH - 1);  // tiles only, not leaf voxels
+  for (; it; ++it) {
+    if (!(*it < 0.f)) continue;
     openvdb::CoordBBox box;
     it.getBoundingBox(box);
     if (origins.size() + box.volume() / (L * L * L) > kMaxVoxelizedLeaves)

@@ -156,17 +156,20 @@ impl Sweep {
                         let ab = (self.centres[1] - a).as_vec3();
                         let inv = 1.0 / ab.length_squared().max(f32::MIN_POSITIVE);
                         let (dy, dz) = ((y - a.y) as f32, (z - a.z) as f32);
-                        let (r, cutoff, h) = (r as f32, cutoff as f32, voxel as f32);
+                        let (r, cutoff, h, band) = (r as f32, cutoff as f32, voxel as f32, band as f32);
                         let x0 = (f64::from(i_lo) * voxel - a.x) as f32;
-                        let done = done.map(|d| ((d.centre - a).as_vec3(), d.radius as f32));
+                        let yz = dy * ab.y + dz * ab.z;
+                        // No done ball: one of radius −∞ excludes nothing.
+                        let (c, rc) = done.map_or((glam::Vec3::ZERO, f32::NEG_INFINITY), |d| ((d.centre - a).as_vec3(), d.radius as f32));
+                        // Branch-free per voxel so the row vectorises.
                         for (n, v) in out.iter_mut().enumerate() {
-                            let p = glam::Vec3::new(x0 + n as f32 * h, dy, dz);
-                            let t = (p.dot(ab) * inv).clamp(0.0, 1.0);
-                            let d = ((p - ab * t).length() - r).min(cutoff);
-                            *v = match done {
-                                Some((c, rc)) => unless_done(d, (p - c).length() - rc, band as f32, cutoff),
-                                None => d,
-                            };
+                            let px = x0 + n as f32 * h;
+                            let t = ((px * ab.x + yz) * inv).max(0.0).min(1.0);
+                            let (qx, qy, qz) = (px - ab.x * t, dy - ab.y * t, dz - ab.z * t);
+                            let d = ((qx * qx + qy * qy + qz * qz).sqrt() - r).min(cutoff);
+                            let (ex, ey, ez) = (px - c.x, dy - c.y, dz - c.z);
+                            let d_done = (ex * ex + ey * ey + ez * ez).sqrt() - rc;
+                            *v = unless_done(d, d_done, band, cutoff);
                         }
                     }
                     Some(r) => {
@@ -213,9 +216,9 @@ impl Sweep {
 
 /// The tool's distance `d` at a voxel, or `cutoff` (no change) when the ball already cut there
 /// (at distance `d_done`) went at least as deep, or beyond the band, where values saturate.
-#[inline]
+#[inline(always)]
 fn unless_done(d: f32, d_done: f32, band: f32, cutoff: f32) -> f32 {
-    if d >= d_done - DONE_SLACK || d_done <= -band - DONE_SLACK {
+    if (d >= d_done - DONE_SLACK) | (d_done <= -band - DONE_SLACK) {
         cutoff
     } else {
         d
