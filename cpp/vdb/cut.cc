@@ -50,7 +50,7 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   const float* tp = tool.data();  // rust::Slice indexing calls out of line per element
   const float bg = grid.background();
   const double h = grid.voxelSize()[0];
-  const double eps = 1.5 * h;
+  const VolumeKernels kernels(h);
   const float reach = bg + float(h) * 1.01f;
   auto& before = impl.scratch_old;
   if (before.size() < expected) {  // grows once to the largest patch, then reused
@@ -135,18 +135,21 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
           } else {
             leaf->setValueOff(c, bg);
           }
-          changed.push_back(uint32_t(row + i));
-          stats.removed_volume += inside_fraction(old, eps) - inside_fraction(now, eps);
+          changed.push_back(ChangedVoxel{uint32_t(row + i), old, now});
+          stats.removed_volume += kernels.inside_fraction(old) - kernels.inside_fraction(now);
           if (log) log->push_back(VoxelChange{c.x(), c.y(), c.z(), old});
         }
       }
     }
   stats.changed_voxels = changed.size();
   if (changed.empty()) return stats;
-  // Pass 2: the curvature term changes only at changed voxels and their six neighbours. Voxels
-  // the tool reaches have their old value in `before` and their new one follows from the tool
-  // again; every other voxel is unchanged and read from the tree (the tool's cut-off margin keeps
-  // every changed voxel's neighbours in the box; only their Laplacians may reach past it).
+  // Pass 2, the curvature term: sum over voxels v of W(old_v) Lap(old)_v - W(new_v) Lap(new)_v,
+  // where W is the curvature weight. With d = new - old (non-zero only at changed voxels) and
+  // Lap(new) = Lap(old) + Lap(d), regrouping the Lap(d) sum by the changed voxel it comes from
+  // gives, per changed voxel c: (W(old_c) - W(new_c)) Lap(old)_c - d_c Lap(W(new))_c. So only the
+  // six neighbours of each changed voxel are read. They lie within the tool's reach (a voxel's
+  // distance to the tool changes by at most h), so pass 1 noted their old values in `before`; their
+  // new ones follow from the tool again. The tree is read only if that ever fails.
   auto value = [&](int i, int j, int k, float& o, float& w) __attribute__((always_inline)) {
     if (box.contains(i, j, k)) {
       const size_t m = box.index(i, j, k);
@@ -160,38 +163,25 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
     }
     o = w = acc.getValue(Coord(index_min[0] + i, index_min[1] + j, index_min[2] + k));
   };
-  static const int nb[7][3] = {{0, 0, 0}, {1, 0, 0}, {-1, 0, 0}, {0, 1, 0},
-                               {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-  auto& mark = impl.scratch_mark;  // all zero between calls
-  if (mark.size() < expected) mark.resize(expected, 0);
-  auto& visited = impl.scratch_visited;
-  visited.clear();
+  static const int nb[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
   double correction = 0.0;
   const int nx = int(dims[0]), nxy = int(dims[0] * dims[1]);
-  for (uint32_t c : changed) {
-    const int ci = int(c) % nx, cj = (int(c) / nx) % int(dims[1]), ck = int(c) / nxy;
+  const double inv_h2 = 1.0 / (h * h);
+  for (const ChangedVoxel& c : changed) {
+    const int ci = int(c.m) % nx, cj = (int(c.m) / nx) % int(dims[1]), ck = int(c.m) / nxy;
+    float sum_old = 0.f;
+    double sum_weight = 0.0;
     for (const auto& d : nb) {
-      const int i = ci + d[0], j = cj + d[1], k = ck + d[2];
-      if (!box.contains(i, j, k)) continue;
-      const size_t m = box.index(i, j, k);
-      if (mark[m]) continue;
-      mark[m] = 1;
-      visited.push_back(uint32_t(m));
       float o, w;
-      value(i, j, k, o, w);
-      if (std::fabs(o) >= eps && std::fabs(w) >= eps) continue;
-      float so = 0.f, sw = 0.f;
-      for (int q = 1; q < 7; ++q) {
-        float a, b;
-        value(i + nb[q][0], j + nb[q][1], k + nb[q][2], a, b);
-        so += a;
-        sw += b;
-      }
-      correction += curvature_term(o, (so - 6.f * o) / (h * h), eps) -
-                    curvature_term(w, (sw - 6.f * w) / (h * h), eps);
+      value(ci + d[0], cj + d[1], ck + d[2], o, w);
+      sum_old += o;
+      sum_weight += kernels.curvature_weight(w);
     }
+    const double w_new = kernels.curvature_weight(c.now);
+    const double lap_old = (sum_old - 6.f * c.old) * inv_h2;
+    const double lap_weight = (sum_weight - 6.0 * w_new) * inv_h2;
+    correction += (kernels.curvature_weight(c.old) - w_new) * lap_old - double(c.now - c.old) * lap_weight;
   }
-  for (uint32_t m : visited) mark[m] = 0;
   stats.removed_volume = (stats.removed_volume - correction) * h * h * h;
   return stats;
 }
@@ -218,7 +208,7 @@ void LevelSet::removal_by_offset(std::array<int32_t, 3> index_min, std::array<ui
   const auto& grid = *impl->grid;
   const float bg = grid.background();
   const double h = grid.voxelSize()[0];
-  const double eps = 1.5 * h;
+  const VolumeKernels kernels(h);
   float smallest = std::numeric_limits<float>::infinity();
   for (float o : offsets) smallest = std::min(smallest, o);
   for (auto& r : removed) r = 0.0;
@@ -234,11 +224,11 @@ void LevelSet::removal_by_offset(std::array<int32_t, 3> index_min, std::array<ui
         if (!(tp[n] + smallest < bg)) continue;
         const float old = acc.getValue(Coord(index_min[0] + int32_t(i), index_min[1] + int32_t(j),
                                              index_min[2] + int32_t(k)));
-        const double before = inside_fraction(old, eps);
+        const double before = kernels.inside_fraction(old);
         if (before == 0.0) continue;
         for (size_t m = 0; m < n_off; ++m) {
           const float cut = -(tp[n] + op[m]);
-          if (cut > old) rp[m] += before - inside_fraction(std::min(cut, bg), eps);
+          if (cut > old) rp[m] += before - kernels.inside_fraction(std::min(cut, bg));
         }
       }
   for (auto& r : removed) r *= h * h * h;

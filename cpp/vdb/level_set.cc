@@ -83,6 +83,16 @@ void LevelSet::set_leaf(std::array<int32_t, 3> origin, rust::Slice<const float> 
   }
 }
 
+const KernelTables kKernels = [] {
+  KernelTables k{};
+  for (int i = 0; i <= kKernelSteps + 1; ++i) {
+    const double t = std::min(-1.0 + 2.0 * i / kKernelSteps, 1.0);
+    k.heaviside[i] = float(0.5 * (1.0 - t - std::sin(M_PI * t) / M_PI));
+    k.delta[i] = float(0.5 * (1.0 + std::cos(M_PI * t)));
+  }
+  return k;
+}();
+
 void LevelSet::finish_build() {
   openvdb::tools::signedFloodFill(impl->grid->tree());
   openvdb::tools::pruneLevelSet(impl->grid->tree());
@@ -117,23 +127,23 @@ void LevelSet::prune() { openvdb::tools::pruneLevelSet(impl->grid->tree()); }
 
 double LevelSet::volume() const {
   const double h = voxel_size();
-  const double eps = 1.5 * h;
+  const VolumeKernels kernels(h);
   double sum = 0.0;
   for (auto it = impl->grid->cbeginValueAll(); it; ++it) {
-    const double f = inside_fraction(*it, eps);
+    const double f = kernels.inside_fraction(*it);
     if (f > 0.0) sum += f * double(it.getVoxelCount());
   }
-  // Curvature correction over the voxels near the surface (see curvature_term in impl.h).
+  // Curvature correction over the voxels near the surface (see VolumeKernels in impl.h).
   openvdb::tree::ValueAccessor<const FloatTree, false> acc(impl->grid->tree());
   double correction = 0.0;
   for (auto it = impl->grid->cbeginValueOn(); it; ++it) {
     const float phi = *it;
-    if (!(std::fabs(phi) < eps)) continue;
+    if (!(std::fabs(phi) < kernels.eps)) continue;
     const Coord c = it.getCoord();
     const float s = acc.getValue(c.offsetBy(1, 0, 0)) + acc.getValue(c.offsetBy(-1, 0, 0)) +
                     acc.getValue(c.offsetBy(0, 1, 0)) + acc.getValue(c.offsetBy(0, -1, 0)) +
                     acc.getValue(c.offsetBy(0, 0, 1)) + acc.getValue(c.offsetBy(0, 0, -1));
-    correction += curvature_term(phi, (s - 6.f * phi) / (h * h), eps);
+    correction += kernels.curvature_weight(phi) * (s - 6.f * phi) / (h * h);
   }
   return (sum - correction) * h * h * h;
 }

@@ -1,20 +1,17 @@
 //! Criterion timings of one haptic tick's cut and of the re-mesh after it (no peer here; the
 //! peer comparison lives in `dentsim bench`, see `dentsim_sim::bench`).
 use criterion::{criterion_group, criterion_main, Criterion};
-use dentsim_sim::bench::bench_tooth;
+use dentsim_sim::bench::{bench_stroke_tip, bench_tooth};
 use dentsim_sim::burr::Burr;
 use dentsim_sim::cut::Cutter;
 use dentsim_sim::mesher::Mesher;
 use dentsim_sim::removal::Feed;
-use glam::{DAffine3, DVec3};
 
-fn tip(i: usize) -> DAffine3 {
-    let s = i as f64 * 0.02;
-    DAffine3::from_translation(DVec3::new(-1.5 + s % 3.0, 0.0, 5.0 - 0.6 - 0.4 * (s / 3.0).floor()))
-}
+
 
 fn ticks(c: &mut Criterion) {
-    let model = bench_tooth().unwrap();
+    let tooth = bench_tooth().unwrap();
+    let (model, tip) = (&tooth.model, |i: usize| bench_stroke_tip(tooth.occlusal, i % 400));
     for spec in ["round:1.0", "cylinder_round:1.0:3", "flame_016"] {
         let burr = Burr::parse(spec).unwrap();
         let mut m = model.clone();

@@ -3,8 +3,8 @@ use dentsim_sim::bench::{bench_tooth, cut_stroke, remesh_stroke, BenchConfig};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let cfg = BenchConfig::full();
-    let model = bench_tooth()?;
-    for row in [cut_stroke(&model, cfg)?, remesh_stroke(&model, cfg)?] {
+    let tooth = bench_tooth()?;
+    for row in [cut_stroke(&tooth, cfg)?, remesh_stroke(&tooth, cfg)?] {
         println!(
             "{:<14} ours median {:>9.1} µs  p99 {:>9.1} µs | peer ({}) median {:>9.1} µs | ×{:.1}",
             row.name, row.ours_median_us, row.ours_p99_us, row.peer, row.peer_median_us, row.ratio

@@ -1,25 +1,22 @@
 //! Times the bench's cut_stroke ticks over several fresh copies of the tooth and keeps each tick's
 //! fastest run, so the figures hold on a busy machine (for profiling; `dentsim bench` is the
 //! reference).
-use dentsim_sim::bench::bench_tooth;
+use dentsim_sim::bench::{bench_stroke_tip, bench_tooth};
 use dentsim_sim::burr::Burr;
 use dentsim_sim::cut::Cutter;
 use dentsim_sim::removal::Feed;
-use glam::{DAffine3, DVec3};
+
 use std::time::Instant;
 
-fn tip(i: usize) -> DAffine3 {
-    let top = dentsim_sim::phantom::CapsuleTooth::default().outer.top();
-    let s = i as f64 * 0.02;
-    DAffine3::from_translation(DVec3::new(-1.5 + s % 3.0, 0.0, top - 0.6 - 0.4 * (s / 3.0).floor()))
-}
 
 fn main() {
-    let model = bench_tooth().unwrap();
+    let tooth = bench_tooth().unwrap();
+    let (model, tip) = (&tooth.model, |i| bench_stroke_tip(tooth.occlusal, i));
     let burr = Burr::round(1.0).unwrap();
     let rounds: usize = std::env::args().nth(1).map_or(10, |a| a.parse().unwrap());
     let mut best = vec![f64::INFINITY; 400];
     let mut voxels = 0u64;
+    let mut removed = vec![0.0; model.tissues.len()];
     for _ in 0..rounds {
         let mut m = model.clone();
         m.voxelize_for_cutting().unwrap();
@@ -30,9 +27,14 @@ fn main() {
             let r = cutter.cut_with(&mut m, &burr, tip(i), tip(i + 1), Feed::Geometric).unwrap();
             *b = b.min(t.elapsed().as_secs_f64() * 1e6);
             voxels += r.changed_voxels;
+            for (k, (_, v)) in r.removed_mm3.iter().enumerate() {
+                removed[k] += v / rounds as f64;
+            }
         }
     }
     best.sort_by(f64::total_cmp);
     let q = |p: f64| best[((best.len() - 1) as f64 * p) as usize];
+    let names: Vec<&str> = model.tissues.iter().map(|t| t.props.name.as_str()).collect();
+    println!("removed per run: {:?} mm3 ({names:?})", removed);
     println!("fastest of {rounds}: p50 {:.1} p99 {:.1} max {:.1} us; changed voxels/tick {}", q(0.5), q(0.99), q(1.0), voxels / (400 * rounds) as u64);
 }

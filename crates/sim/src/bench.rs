@@ -16,7 +16,6 @@ use crate::mesher::Mesher;
 use crate::removal::Feed;
 use crate::error::Result;
 use crate::model::TissueModel;
-use crate::phantom::CapsuleTooth;
 use crate::session::{run_session, SessionOptions};
 use crate::tissue::TissueTable;
 
@@ -141,9 +140,29 @@ impl Xorshift {
     }
 }
 
-/// The tooth every row works on: the capsule phantom at 0.05 mm.
-pub fn bench_tooth() -> Result<TissueModel> {
-    CapsuleTooth::default().build(0.05, &TissueTable::default())
+/// The tooth every row works on: the molar phantom's tooth 36, segmented from its scan into
+/// level sets at 0.05 mm (as `dentsim segment` and the demo make it).
+pub struct BenchTooth {
+    pub model: TissueModel,
+    /// The enamel surface straight above the crown's centre (world +z is occlusal); the burr
+    /// works downward from here.
+    pub occlusal: DVec3,
+}
+
+pub fn bench_tooth() -> Result<BenchTooth> {
+    use dentsim_cbct::{Phantom, PhantomSpec};
+    let phantom = Phantom::new(&PhantomSpec::default());
+    let seed = phantom.tooth_seed(36).map(DVec3::from_array).ok_or_else(|| crate::error::invalid("bench tooth", "the phantom has no tooth 36"))?;
+    let request = crate::scan::ScanToTissues { seed_mm: Some(seed.to_array()), ..Default::default() };
+    let (model, _) = request.run(&phantom.scan(), &TissueTable::default(), &mut |_, _| {})?;
+    let enamel = model.get("enamel").ok_or_else(|| crate::error::invalid("bench tooth", "no enamel segmented"))?;
+    let mut reader = enamel.grid.reader();
+    let occlusal = (0..2000)
+        .map(|i| DVec3::new(seed.x, seed.y, seed.z + 10.0 - 0.005 * f64::from(i)))
+        .find(|p| reader.value(*p) <= 0.0)
+        .ok_or_else(|| crate::error::invalid("bench tooth", "no enamel above the crown's centre"))?;
+    drop(reader);
+    Ok(BenchTooth { model, occlusal })
 }
 
 const SAMPLES_PER_BATCH: usize = 1000;
@@ -172,39 +191,47 @@ fn sdf_rows(model: &TissueModel, cfg: BenchConfig, name: &str, points: &[DVec3])
 }
 
 /// Points within 0.2 mm of one enamel surface point, as a burr's contact samples are.
-pub fn sdf_sample_near(model: &TissueModel, cfg: BenchConfig) -> BenchRow {
+pub fn sdf_sample_near(tooth: &BenchTooth, cfg: BenchConfig) -> BenchRow {
     let mut rng = Xorshift(0x9e37_79b9_7f4a_7c15);
-    let centre = DVec3::new(0.0, 0.0, CapsuleTooth::default().outer.top());
-    let points: Vec<DVec3> = (0..SAMPLES_PER_BATCH * 8).map(|_| centre + rng.direction() * 0.2 * rng.unit()).collect();
-    sdf_rows(model, cfg, "sdf_sample_near", &points)
+    let points: Vec<DVec3> = (0..SAMPLES_PER_BATCH * 8).map(|_| tooth.occlusal + rng.direction() * 0.2 * rng.unit()).collect();
+    sdf_rows(&tooth.model, cfg, "sdf_sample_near", &points)
 }
 
-/// Points spread over the whole enamel surface band, so the accessor cache rarely hits.
-pub fn sdf_sample_random(model: &TissueModel, cfg: BenchConfig) -> BenchRow {
+/// Points spread over the whole enamel surface band (mesh vertices moved up to ±0.15 mm), so
+/// the accessor cache rarely hits.
+pub fn sdf_sample_random(tooth: &BenchTooth, cfg: BenchConfig) -> BenchRow {
     let mut rng = Xorshift(0x2545_f491_4f6c_dd1d);
-    let outer = CapsuleTooth::default().outer;
+    let surface = tooth.model.tissues[0].grid.to_mesh();
     let points: Vec<DVec3> = (0..SAMPLES_PER_BATCH * 8)
         .map(|_| {
-            let axis = DVec3::new(0.0, 0.0, (2.0 * rng.unit() - 1.0) * outer.half_length);
-            axis + rng.direction() * (outer.radius + 0.3 * (rng.unit() - 0.5))
+            let v = surface.points[(rng.unit() * surface.points.len() as f64) as usize % surface.points.len().max(1)];
+            v.as_dvec3() + rng.direction() * 0.15 * rng.unit()
         })
         .collect();
-    sdf_rows(model, cfg, "sdf_sample_random", &points)
+    sdf_rows(&tooth.model, cfg, "sdf_sample_random", &points)
 }
 
-/// Burr tip after `i` ticks at 20 mm/s: back and forth across the capsule tooth's top, 0.4 mm
-/// deeper on each pass (through enamel into dentin).
-fn bench_stroke_tip(i: usize) -> DAffine3 {
-    let top = CapsuleTooth::default().outer.top();
+/// Burr tip after `i` ticks at 20 mm/s along a zigzag over the molar's occlusal surface: 2 mm
+/// passes, each ending in a 0.6 mm plunge, the first 0.9 mm deep (enamel), the third 0.45 mm
+/// into the dentin. Every tick's stroke is 0.02 mm, plunges included (no jumps).
+pub fn bench_stroke_tip(occlusal: DVec3, i: usize) -> DAffine3 {
+    const PASS: f64 = 2.0;
+    const PLUNGE: f64 = 0.6;
     let s = i as f64 * 0.02;
-    DAffine3::from_translation(DVec3::new(-1.5 + s % 3.0, 0.0, top - 0.6 - 0.4 * (s / 3.0).floor()))
+    let k = (s / (PASS + PLUNGE)).floor();
+    let u = s - k * (PASS + PLUNGE);
+    let dir = if k % 2.0 == 0.0 { 1.0 } else { -1.0 };
+    let depth = -0.9 - PLUNGE * k;
+    let (x, z) = if u < PASS { (-dir + dir * u, depth) } else { (dir, depth - (u - PASS)) };
+    DAffine3::from_translation(occlusal + DVec3::new(x, 0.0, z))
 }
 
 /// One 1 kHz tick's stroke (0.02 mm, i.e. 20 mm/s) of a 1.0 mm round burr through enamel into
 /// dentin, applied to every tissue; peer: build a tool sphere and `csgDifference` it per tissue.
-pub fn cut_stroke(model: &TissueModel, cfg: BenchConfig) -> Result<BenchRow> {
+pub fn cut_stroke(tooth: &BenchTooth, cfg: BenchConfig) -> Result<BenchRow> {
     let burr = Burr::round(1.0)?;
-    let tip = bench_stroke_tip;
+    let tip = |i| bench_stroke_tip(tooth.occlusal, i);
+    let model = &tooth.model;
     let mut ours_model = model.clone();
     let mut cutter = Cutter::default();
     let mut failure = None;
@@ -236,15 +263,17 @@ pub fn cut_stroke(model: &TissueModel, cfg: BenchConfig) -> Result<BenchRow> {
     }
 }
 
-/// Contact query of a 1.0 mm round burr (`points` samples) pressed 0.1 mm into the capsule
-/// molar's top at 0.05 mm voxels, against all three tissues; peer: parry3d `project_point` of the
-/// same points on each tissue's triangle mesh (OpenVDB `volumeToMesh`, BVH built beforehand).
-pub fn force_query(model: &TissueModel, points: usize, iterations: usize) -> Result<BenchRow> {
+/// Contact query of a 1.0 mm round burr (`points` samples) pressed about 0.1 mm into the molar's
+/// occlusal surface at 0.05 mm voxels, against all three tissues; peer: parry3d `project_point`
+/// of the same points on each tissue's triangle mesh (OpenVDB `volumeToMesh`, BVH built
+/// beforehand).
+pub fn force_query(tooth: &BenchTooth, points: usize, iterations: usize) -> Result<BenchRow> {
+    let model = &tooth.model;
     let burr = Burr::round(1.0)?;
     let samples = BurrSamples::new(&burr, points)?;
     let tool_points = samples.points.clone();
     let mut query = ContactQuery::with_bounds(samples, model);
-    let pose = DAffine3::from_translation(DVec3::new(0.3, 0.2, 4.9));
+    let pose = DAffine3::from_translation(tooth.occlusal + DVec3::new(0.3, 0.2, -0.1));
     let mut ours = Vec::with_capacity(iterations);
     let mut in_contact = 0;
     for _ in 0..iterations {
@@ -287,10 +316,13 @@ pub fn force_query(model: &TissueModel, points: usize, iterations: usize) -> Res
 /// A real-time session (1 kHz, raised priority where permitted) with a scripted device cutting
 /// down into the tooth while the mesher runs at 30 Hz: tick periods and cut → visible latency.
 /// No peer runs these; the rows carry the goals instead.
-pub fn loop_period(model: &TissueModel, seconds: f64) -> Result<Vec<BenchRow>> {
+pub fn loop_period(tooth: &BenchTooth, seconds: f64) -> Result<Vec<BenchRow>> {
+    let (a, b) = (tooth.occlusal + DVec3::new(0.0, 0.0, 0.6), tooth.occlusal + DVec3::new(0.3, 0.0, -1.0));
     let csv = format!(
-        "t,x,y,z,qw,qx,qy,qz,rpm,cut\n0,0,0,5.6,1,0,0,0,200000,1\n{seconds:.3},0.3,0,4.0,1,0,0,0,200000,1\n"
+        "t,x,y,z,qw,qx,qy,qz,rpm,cut\n0,{},{},{},1,0,0,0,200000,1\n{seconds:.3},{},{},{},1,0,0,0,200000,1\n",
+        a.x, a.y, a.z, b.x, b.y, b.z
     );
+    let model = &tooth.model;
     let path = ScriptedPath::parse(&csv, "bench path").map_err(|e| crate::error::invalid("bench path", e.to_string()))?;
     let options = SessionOptions { realtime: true, mesher_hz: Some(30.0), log_path: None, ..Default::default() };
     let out = run_session(model.clone(), path, options)?;
@@ -333,10 +365,10 @@ fn peak_resident_bytes() -> u64 {
 
 /// Re-meshing after one tick's stroke: our chunk mesher over the dirty leaves of every tissue vs
 /// a full `volumeToMesh` of every tissue (the peer).
-pub fn remesh_stroke(model: &TissueModel, cfg: BenchConfig) -> Result<BenchRow> {
+pub fn remesh_stroke(tooth: &BenchTooth, cfg: BenchConfig) -> Result<BenchRow> {
     let burr = Burr::round(1.0)?;
-    let tip = bench_stroke_tip;
-    let mut ours_model = model.clone();
+    let tip = |i| bench_stroke_tip(tooth.occlusal, i);
+    let mut ours_model = tooth.model.clone();
     let mut mesher = Mesher::full(&ours_model)?;
     let mut cutter = Cutter::default();
     let mut dirty = Vec::new();
@@ -377,18 +409,19 @@ pub fn remesh_stroke(model: &TissueModel, cfg: BenchConfig) -> Result<BenchRow> 
 /// Every row, in a fixed order; `progress(row name)` is called before each.
 pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<BenchRow>> {
     progress("building the tooth");
-    let model = bench_tooth()?;
+    let tooth = bench_tooth()?;
+    let model = &tooth;
     progress("sdf_sample_near");
-    let mut rows = vec![sdf_sample_near(&model, cfg)];
+    let mut rows = vec![sdf_sample_near(model, cfg)];
     progress("sdf_sample_random");
-    rows.push(sdf_sample_random(&model, cfg));
+    rows.push(sdf_sample_random(model, cfg));
     progress("cut_stroke");
-    rows.push(cut_stroke(&model, cfg)?);
+    rows.push(cut_stroke(model, cfg)?);
     progress("remesh_stroke");
-    rows.push(remesh_stroke(&model, cfg)?);
+    rows.push(remesh_stroke(model, cfg)?);
     progress("force_query");
-    rows.push(force_query(&model, 256, cfg.repetitions * 5)?);
+    rows.push(force_query(model, 256, cfg.repetitions * 5)?);
     progress("loop_period");
-    rows.extend(loop_period(&model, cfg.session_seconds)?);
+    rows.extend(loop_period(model, cfg.session_seconds)?);
     Ok(rows)
 }
