@@ -36,6 +36,7 @@ struct Run {
 #[derive(Debug)]
 struct Score {
     ticks: usize,
+    /// Ticks without contact (or without force) from the first contact on.
     no_contact: usize,
     zero_force: usize,
     mean_force: f64,
@@ -73,7 +74,8 @@ fn percentile(mut v: Vec<f64>, p: f64) -> f64 {
     v.get(((v.len() as f64 - 1.0) * p).round() as usize).copied().unwrap_or(0.0)
 }
 
-/// Scores the ticks from 50 after the first contact to the end, and prints the figures.
+/// Scores the ticks from the first contact to the end (force changes and removal from 50 ticks
+/// after it, once the burr has settled into its cut), and prints the figures.
 fn score(name: &str, r: &Run) -> Score {
     let first = r.tissue.iter().position(Option::is_some).expect("the burr never touched");
     let from = first + 50;
@@ -82,8 +84,8 @@ fn score(name: &str, r: &Run) -> Score {
     let jumps: Vec<f64> = raw.windows(2).map(|w| (w[1] - w[0]).abs() / mean_force).collect();
     let s = Score {
         ticks: raw.len(),
-        no_contact: r.tissue[from..].iter().filter(|t| t.is_none()).count(),
-        zero_force: raw.iter().filter(|f| **f < 1e-9).count(),
+        no_contact: r.tissue[first..].iter().filter(|t| t.is_none()).count(),
+        zero_force: r.raw[first..].iter().filter(|f| **f < 1e-9).count(),
         mean_force,
         p99_jump: percentile(jumps.clone(), 0.99),
         max_jump: jumps.iter().copied().fold(0.0, f64::max),
