@@ -11,12 +11,13 @@ from dentsim_testing import (check, compare_with_baseline, parse_args, place_cam
 args = parse_args()
 simple.LoadPlugin(args.plugin, ns=globals())
 
-# Down into the phantom's top (z = 5.0) with the pedal held, then pedal up and pressing 0.2 mm on.
+# Down into the phantom's top (z = 5.0) with the pedal held, held 0.3 mm deep while the burr cuts
+# its way down at the enamel's removal rate, then pedal up and pressing 0.2 mm on.
 path = os.path.join(args.temp, "haptic_session_path.csv")
 with open(path, "w") as f:
     f.write("t,x,y,z,qw,qx,qy,qz,rpm,cut\n0,0,0,6.0,1,0,0,0,200000,1\n"
-            "0.4,0,0,4.7,1,0,0,0,200000,1\n0.45,0,0,4.7,1,0,0,0,200000,0\n"
-            "1.2,0,0,4.5,1,0,0,0,200000,0\n")
+            "0.4,0,0,4.7,1,0,0,0,200000,1\n1.0,0,0,4.7,1,0,0,0,200000,1\n"
+            "1.05,0,0,4.7,1,0,0,0,200000,0\n1.2,0,0,4.5,1,0,0,0,200000,0\n")
 
 
 def state(source):

@@ -59,7 +59,8 @@ fn scripted_session_writes_everything_and_replay_is_bit_exact() {
     assert!(max_force > 0.0 && max_force <= 7.9, "within the desktop profile: {max_force}");
     let enamel = tissue(&summary, "enamel");
     let removed = enamel["removed_mm3"].as_f64().unwrap();
-    assert!(removed > 0.1, "the path cuts enamel: {removed}");
+    // At enamel's removal rate, 0.5 mm³/(N·s) × a few tenths of a newton × ~0.5 s in contact.
+    assert!(removed > 0.02, "the path cuts enamel: {removed}");
     let (before, after) = (enamel["volume_before_mm3"].as_f64().unwrap(), enamel["volume_after_mm3"].as_f64().unwrap());
     // The cut reports count voxels the smoothed volume integral sees differently: agree to 15%.
     assert!(((before - after) - removed).abs() < 0.15 * removed, "{before} - {after} vs {removed}");
@@ -116,7 +117,10 @@ fn simulated_hand_session_cuts_enamel_then_dentin() {
     assert!(dentin["removed_mm3"].as_f64().unwrap() > 0.1 && dentin["contact_s"].as_f64().unwrap() > 0.0, "{dentin}");
     assert_eq!(tissue(&summary, "pulp")["removed_mm3"], 0.0);
     let max_force = summary["max_force_n"].as_f64().unwrap();
-    assert!(max_force > 0.5 && max_force <= 12.0, "{max_force}");
+    // The hand's spring toward its target 2.5 mm below the top balances ≈ 0.5 N once the burr is
+    // a millimetre in (the buried ball's contact gives ≈ k/2); the first touch sinks fast (a small
+    // contact area at the removal rate), so the force builds up no higher.
+    assert!(max_force > 0.3 && max_force <= 12.0, "{max_force}");
 }
 
 #[test]

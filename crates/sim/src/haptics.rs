@@ -16,8 +16,22 @@ use crate::model::TissueModel;
 use crate::proxy::Proxy;
 use crate::watchdog::{Watchdog, WatchdogParams};
 
-/// How deep (in voxels) the proxy may rest in the stroke it cuts (see [`Proxy::follow`]).
-pub const CUT_TOLERANCE_VOXELS: f64 = 0.25;
+/// How deep (mm) the proxy may rest in tissue in cut mode (see [`Proxy::follow_cut`]): rounding
+/// only. The proxy sits in its own cut because the contact query counts the burr at the end of the
+/// last stroke as free space ([`ContactQuery::set_freed`]), not through a tolerance: a stroke
+/// started from a proxy resting that deep in uncut tissue removes that depth on top of the rate
+/// law's advance. The 0.25-voxel tolerance used before did so every cut (12.5 µm per tick, against
+/// ≈ 0.6 µm for enamel at 1 N): the proxy ran ahead of the law, caught up with a slowly moving
+/// device and lost contact (force on/off every few ticks), or slid into the hollow's walls and
+/// widened it (see [`Proxy::follow_cut`]).
+pub const CUT_TOLERANCE_MM: f64 = 1e-6;
+/// Cut mode: a burr point this close to tissue (voxels; at least the samples' gap depth, see
+/// [`BurrSamples::gap_depth`]) touches it: beyond the grids' rounding, small against a cut's depth.
+pub const TOUCH_VOXELS: f64 = 0.1;
+/// A stroke continues from the end of the last one while the proxy is this close to it (voxels).
+pub const STROKE_CONTINUES_VOXELS: f64 = 0.1;
+/// Below this area (mm², a hundredth of a sample point on a 1 mm ball) nothing lies ahead.
+const MIN_FOOTPRINT_MM2: f64 = 1e-4;
 
 /// Everything that shapes the tick; stored in the log header so a replay redoes the same ticks.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -37,9 +51,11 @@ pub struct HapticParams {
     /// Handpiece speed at which the tissue table's removal rates hold (rev/min).
     pub reference_rpm: f64,
     /// Cut once every this many ticks with the advance accumulated meanwhile (1 = every tick).
-    /// 1 by default. Batching (e.g. 10) would amortise a stroke's cost (~1–5 ms today: 3 tissues ×
-    /// ~24 k voxels for a 1 mm ball) but currently stalls the proxy's advance (cut_probe test
-    /// measured 0.04 vs 0.44 mm³/s): not yet understood, see the issue note.
+    /// 1 by default. Batching (e.g. 10) amortises a stroke's cost (~1–5 ms today: 3 tissues ×
+    /// ~24 k voxels for a 1 mm ball) and keeps the removal rate (cut_probe, cut_chatter tests); the
+    /// force then steps by k × the batched advance every interval (≈ 6 mN at 1 N in enamel for 10).
+    /// (It used to stall: the removal came mostly from the cut-mode tolerance, one tolerance
+    /// depth per cut, so batching cut it by the interval.)
     pub cut_interval_ticks: u32,
     pub watchdog: WatchdogParams,
 }
@@ -90,6 +106,10 @@ pub struct HapticCore {
     cutter: Cutter,
     last_device: Option<DVec3>,
     pending_advance: f64,
+    /// End pose of the last cut stroke: that burr head is free space, whatever the grid reads.
+    last_cut: Option<DAffine3>,
+    /// Cut mode: how close to tissue (mm) a burr point touches it ([`TOUCH_VOXELS`]).
+    touch_mm: f64,
     ticks: u64,
     /// Volume removed per tissue so far (mm³), model order.
     pub removed_mm3: Vec<f64>,
@@ -111,6 +131,7 @@ impl HapticCore {
         let burr = Burr::round(params.burr_diameter_mm)?;
         let samples = BurrSamples::new(&burr, params.samples)?;
         let n = samples.len();
+        let samples_gap = samples.gap_depth();
         let k_max = params.profile.max_stiffness_n_per_mm;
         let mechanics = model
             .tissues
@@ -130,6 +151,8 @@ impl HapticCore {
             cutter: Cutter::default(),
             last_device: None,
             pending_advance: 0.0,
+            last_cut: None,
+            touch_mm: (TOUCH_VOXELS * model.voxel_size().unwrap_or(0.05)).max(samples_gap),
             ticks: 0,
             removed_mm3: vec![0.0; model.tissues.len()],
             burr,
@@ -163,12 +186,30 @@ impl HapticCore {
         let velocity = self.last_device.map_or(DVec3::ZERO, |p| (device - p) / dt);
         self.last_device = Some(device);
 
-        let tolerance = if state.cutting() { CUT_TOLERANCE_VOXELS * model.voxel_size().unwrap_or(0.05) } else { 0.0 };
-        self.proxy.follow(&mut self.query, model, &pose, self.params.max_step_mm, tolerance);
+        // Touch mode: the grids alone, no tolerance. Cut mode: the proxy may also rest in the head
+        // it cut last (exact), not deeper in uncut tissue than rounding.
+        let (tolerance, freed) = if state.cutting() { (CUT_TOLERANCE_MM, self.last_cut) } else { (0.0, None) };
+        self.query.set_freed(freed);
+        if state.cutting() {
+            self.proxy.follow_cut(&mut self.query, model, &pose, self.params.max_step_mm, tolerance);
+        } else {
+            self.proxy.follow(&mut self.query, model, &pose, self.params.max_step_mm, tolerance);
+        }
         let proxy = self.proxy.position;
         let axis_point = pose.transform_point3(DVec3::new(0.0, 0.0, self.params.axis_point_mm));
+        let mut at_proxy = pose;
+        at_proxy.translation = proxy;
+        let contacts = if state.cutting() {
+            // The points touching tissue where the proxy came to rest, whichever sub-step found
+            // them: the proxy's own record is the last blocked sub-step's alone, and a sideways
+            // sub-step that grazes a wall after a head-on one would leave the wall's points only.
+            self.query.query(model, &at_proxy, self.touch_mm as f32);
+            self.query.contacts()
+        } else {
+            self.proxy.contacts()
+        };
         let raw = contact_force(
-            self.proxy.contacts(),
+            contacts,
             &self.query.samples,
             &self.mechanics,
             proxy - device,
@@ -178,7 +219,7 @@ impl HapticCore {
         let mut out = TickOutput { raw, proxy, gain: 1.0, ..Default::default() };
 
         if state.cutting() && raw.tissue.is_some() {
-            self.accumulate_advance(&pose, &raw, state.rpm);
+            self.accumulate_advance(model, &pose, &raw, state.rpm);
         }
         let interval = u64::from(self.params.cut_interval_ticks.max(1));
         if self.pending_advance > 0.0 && self.ticks % interval == 0 {
@@ -196,19 +237,42 @@ impl HapticCore {
     }
 
     /// Seed 003's intermediate surface: the proxy may enter the tissue only as fast as the tissue
-    /// is removed: advance = rate·|F|·(rpm/ref)·dt / frontal area of the burr.
-    fn accumulate_advance(&mut self, pose: &DAffine3, raw: &ContactForce, rpm: f64) {
-        let dir = -raw.normal;
-        let tool_dir = pose.inverse().transform_vector3(dir).try_normalize().unwrap_or(DVec3::NEG_Z);
-        let area = self.query.samples.frontal_area(tool_dir).max(1e-6);
+    /// is removed: advance = rate·|F|·(rpm/ref)·dt / A, with A the area that the burr's points
+    /// touching tissue present toward the device ([`BurrSamples::frontal_area_of`]; the contact
+    /// query of this tick), so that the stroke [`HapticCore::cut`] makes removes
+    /// rate·|F|·(rpm/ref)·dt. (The whole head's frontal area instead held a burr just touching a
+    /// surface to a fraction of its removal rate until it had sunk by a radius.) Nothing ahead,
+    /// no advance.
+    fn accumulate_advance(&mut self, model: &TissueModel, pose: &DAffine3, raw: &ContactForce, rpm: f64) {
+        let start = self.stroke_start(model);
+        let Some(dir) = (pose.translation - start).try_normalize() else { return };
+        let area = self.query.samples.frontal_area_of(self.query.contacts(), pose, dir);
+        if !(area > MIN_FOOTPRINT_MM2) {
+            return;
+        }
         let speed = (rpm / self.params.reference_rpm).clamp(0.0, 4.0);
         let budget_mm3 = raw.removal_rate * raw.spring.length() * speed * self.params.period_s;
         self.pending_advance = (self.pending_advance + budget_mm3 / area).min(self.params.max_step_mm);
     }
 
+    /// Where the next stroke starts: where the last one ended while the proxy is still there (to
+    /// the push-out's resolution, [`STROKE_CONTINUES_VOXELS`]), else at the proxy. The push-out
+    /// settles the proxy a fraction of a micrometre off the end of its cut (≈ 0.06 µm behind,
+    /// a tenth of a tick's advance at 1 N in enamel); strokes started there lost that much of
+    /// every advance, and strokes started ahead would add to it.
+    fn stroke_start(&self, model: &TissueModel) -> DVec3 {
+        let proxy = self.proxy.position;
+        let reach = STROKE_CONTINUES_VOXELS * model.voxel_size().unwrap_or(0.05);
+        match self.last_cut {
+            Some(end) if end.translation.distance(proxy) <= reach => end.translation,
+            _ => proxy,
+        }
+    }
+
     /// Cuts the burr from the proxy forward by the pending advance, toward the device.
     fn cut(&mut self, model: &mut TissueModel, pose: &DAffine3, out: &mut TickOutput) -> Result<f64> {
-        let toward = pose.translation - self.proxy.position;
+        let start = self.stroke_start(model);
+        let toward = pose.translation - start;
         let Some(dir) = toward.try_normalize() else {
             self.pending_advance = 0.0;
             return Ok(0.0);
@@ -216,11 +280,12 @@ impl HapticCore {
         let advance = self.pending_advance.min(toward.length());
         self.pending_advance = 0.0;
         let mut from = *pose;
-        from.translation = self.proxy.position;
+        from.translation = start;
         let mut to = from;
         to.translation += dir * advance;
         // The borrowed report: `Cutter::cut` would clone it (tissue names) every cut tick.
         let report = self.cutter.cut_with(model, &self.burr, from, to, Feed::Geometric)?;
+        self.last_cut = Some(to);
         let mut total = 0.0;
         for (i, (_, v)) in report.removed_mm3.iter().enumerate() {
             if let Some(r) = self.removed_mm3.get_mut(i) {

@@ -1,9 +1,10 @@
 //! The display-side session: polls never block, the final state is the session's result.
 use dentsim_sim::live::{LiveRequest, LiveSession};
 
-/// Down into the phantom's top (z = 5.0) with the pedal held, then pedal up and pressing 0.2 mm
-/// further: the cut stops and the burr rests on the enamel it cut, pushed back.
-const PATH: &str = "t,x,y,z,qw,qx,qy,qz,rpm,cut\n0,0,0,6.0,1,0,0,0,200000,1\n0.4,0,0,4.7,1,0,0,0,200000,1\n0.45,0,0,4.7,1,0,0,0,200000,0\n0.6,0,0,4.5,1,0,0,0,200000,0\n";
+/// Down into the phantom's top (z = 5.0) with the pedal held, held 0.3 mm deep while the burr
+/// cuts its way down at the enamel's removal rate, then pedal up and pressing 0.2 mm further: the
+/// cut stops and the burr rests on the enamel it cut, pushed back.
+const PATH: &str = "t,x,y,z,qw,qx,qy,qz,rpm,cut\n0,0,0,6.0,1,0,0,0,200000,1\n0.4,0,0,4.7,1,0,0,0,200000,1\n1.0,0,0,4.7,1,0,0,0,200000,1\n1.05,0,0,4.7,1,0,0,0,200000,0\n1.2,0,0,4.5,1,0,0,0,200000,0\n";
 
 fn request(dir: &std::path::Path) -> LiveRequest {
     let csv = dir.join("path.csv");
@@ -33,7 +34,7 @@ fn scripted_live_session_ends_in_contact_with_enamel() {
         polls += 1;
     }
     println!("{polls} polls; final tick {}, proxy {}, force {} N, tissue {:?}", state.tick, state.proxy, state.force, state.tissue);
-    assert_eq!(state.tick, 601, "ticks 0..=601: the path ends at 0.6 s");
+    assert_eq!(state.tick, 1201, "ticks 0..=1201: the path ends at 1.2 s");
     assert!(state.proxy.z < 4.95 && state.proxy.z > 4.6, "the burr went down into the top: {}", state.proxy);
     assert_eq!(state.tissue.as_deref(), Some("enamel"));
     assert!(state.force.z > 0.1, "pushes the tool back up: {}", state.force);

@@ -80,7 +80,8 @@ fn replay_reproduces_the_session_bit_for_bit() {
         assert_eq!(a.grid.active_voxel_count(), b.grid.active_voxel_count());
     }
     println!("removed {:?}; replay force difference {} N", again.removed_mm3, again.max_force_difference_n);
-    assert!(again.removed_mm3.iter().map(|(_, v)| v).sum::<f64>() > 0.1);
+    // At enamel's removal rate: 0.5 mm³/(N·s) × a few tenths of a newton × ~0.5 s in contact.
+    assert!(again.removed_mm3.iter().map(|(_, v)| v).sum::<f64>() > 0.02);
     assert_eq!(again.max_force_difference_n, 0.0);
     let names: Vec<String> = again.model.tissues.iter().map(|t| t.props.name.clone()).collect();
     let colours: Vec<[f32; 3]> = again.model.tissues.iter().map(|t| t.props.colour).collect();
