@@ -7,13 +7,9 @@ use common::*;
 use dentsim_sim::haptics::{HapticCore, HapticParams};
 use glam::DVec3;
 
-
-/// The allocation counter is global: the tests here take turns.
-static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
-
 #[test]
 fn touch_mode_tick_does_not_allocate() {
-    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let _serial = alloc_counter::exclusive();
     let mut model = box_model("enamel", DVec3::new(-2.0, -2.0, -1.0), DVec3::new(2.0, 2.0, 0.0));
     let mut core = HapticCore::new(HapticParams::default(), &model).unwrap();
     // Warm up: first contact, free space, sliding.
@@ -47,7 +43,7 @@ fn touch_mode_tick_does_not_allocate() {
 fn cut_mode_tick_does_not_allocate() {
     use dentsim_devices::{DeviceState, BUTTON_CUT};
     use glam::DAffine3;
-    let _serial = SERIAL.lock().unwrap_or_else(|e| e.into_inner());
+    let _serial = alloc_counter::exclusive();
     let mut model = box_model("enamel", DVec3::new(-2.0, -2.0, -2.0), DVec3::new(2.0, 2.0, 0.0));
     let mut core = HapticCore::new(HapticParams::default(), &model).unwrap();
     let cut = |z: f64| DeviceState { pose: DAffine3::from_translation(DVec3::new(0.0, 0.0, z)), buttons: BUTTON_CUT, rpm: 200_000.0 };

@@ -13,6 +13,7 @@ use glam::{DAffine3, DQuat, DVec3};
 
 #[test]
 fn warmed_up_ticks_do_not_allocate() {
+    let _serial = alloc_counter::exclusive();
     let mut model = CapsuleTooth::default().build(0.05, &TissueTable::default()).unwrap();
     let plain = model.clone();
     model.voxelize_for_cutting().unwrap();
@@ -51,6 +52,7 @@ fn warmed_up_ticks_do_not_allocate() {
 
 #[test]
 fn voxelizing_keeps_every_value_and_compacting_gives_the_tiles_back() {
+    let _serial = alloc_counter::exclusive();
     let mut model = CapsuleTooth::default().build(0.05, &TissueTable::default()).unwrap();
     let hashes: Vec<u64> = model.tissues.iter().map(|t| t.grid.content_hash()).collect();
     let volumes: Vec<f64> = model.tissues.iter().map(|t| t.grid.volume()).collect();

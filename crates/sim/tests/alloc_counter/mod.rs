@@ -27,3 +27,9 @@ static GLOBAL: Counting = Counting;
 pub fn allocations() -> usize {
     ALLOCATIONS.load(Ordering::SeqCst)
 }
+
+/// The counter is global to the test binary: tests that read it take turns through this guard.
+pub fn exclusive() -> std::sync::MutexGuard<'static, ()> {
+    static SERIAL: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
