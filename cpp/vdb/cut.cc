@@ -167,6 +167,7 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   double correction = 0.0;
   const int nx = int(dims[0]), nxy = int(dims[0] * dims[1]);
   const double inv_h2 = 1.0 / (h * h);
+  const float eps = float(kernels.eps);
   for (const ChangedVoxel& c : changed) {
     const int ci = int(c.m) % nx, cj = (int(c.m) / nx) % int(dims[1]), ck = int(c.m) / nxy;
     float sum_old = 0.f;
@@ -175,7 +176,7 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
       float o, w;
       value(ci + d[0], cj + d[1], ck + d[2], o, w);
       sum_old += o;
-      sum_weight += kernels.curvature_weight(w);
+      if (std::fabs(w) < eps) sum_weight += kernels.curvature_weight(w);  // zero beyond eps
     }
     const double w_new = kernels.curvature_weight(c.now);
     const double lap_old = (sum_old - 6.f * c.old) * inv_h2;

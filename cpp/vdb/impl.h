@@ -73,14 +73,17 @@ extern const KernelTables kKernels;
 //   (m * delta_eps(phi)) removes the bias (to second order) for any smooth surface.
 // Both read the tables branch-free: beyond +-eps the tables' end values hold (1 or 0, and 0).
 struct VolumeKernels {
-  double eps, scale, m_over_eps;
+  double eps;
+  float scale, m_over_eps;
   explicit VolumeKernels(double h)
-      : eps(1.5 * h), scale(kKernelSteps / 2 / eps), m_over_eps(eps * (1.0 / 6.0 - 1.0 / (M_PI * M_PI))) {}
-  double lookup(const float* table, float phi) const {
-    double u = phi * scale + kKernelSteps / 2;
-    u = u > 0.0 ? (u < kKernelSteps ? u : double(kKernelSteps)) : 0.0;  // NaN reads as inside
+      : eps(1.5 * h),
+        scale(float(kKernelSteps / 2 / eps)),
+        m_over_eps(float(eps * (1.0 / 6.0 - 1.0 / (M_PI * M_PI)))) {}
+  float lookup(const float* table, float phi) const {
+    float u = phi * scale + float(kKernelSteps / 2);
+    u = u > 0.f ? (u < float(kKernelSteps) ? u : float(kKernelSteps)) : 0.f;  // NaN reads as inside
     const int i = std::min(int(u), kKernelSteps - 1);
-    return table[i] + (u - i) * (table[i + 1] - table[i]);
+    return table[i] + (u - float(i)) * (table[i + 1] - table[i]);
   }
   double inside_fraction(float phi) const { return lookup(kKernels.heaviside, phi); }
   double curvature_weight(float phi) const { return m_over_eps * lookup(kKernels.delta, phi); }
