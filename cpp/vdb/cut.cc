@@ -3,9 +3,9 @@
 // In: a box of voxels (index_min, dims, x fastest) holding the tool's signed distance at each voxel
 // centre, and an offset added to it (a positive offset shrinks the tool: partial-depth cuts).
 // Out: every voxel with tool + offset < background takes max(value, -(tool + offset)); voxels
-// whose new value leaves the band are switched off at +background. Each changed voxel's old value
-// is appended to `log` when one is given (for undo and dirty tracking; reusing its capacity, no
-// allocation). Removed volume is measured exactly as LevelSet::volume measures: the smoothed
+// whose new value leaves the band are switched off at +background. A logged cut keeps each changed
+// voxel's old value for last_changes (undo and dirty tracking; the buffer is reused, no
+// allocation once grown). Removed volume is measured exactly as LevelSet::volume measures: the smoothed
 // Heaviside with its curvature correction, evaluated before and after on every voxel whose value or
 // Laplacian changed. Cost: one accessor probe per leaf block of the box and one buffer read per
 // voxel within the tool's band plus one voxel; voxels farther outside the tool are not read.
@@ -31,12 +31,13 @@ struct Box {
 
 CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
                        std::array<uint32_t, 3> dims, rust::Slice<const float> tool,
-                       rust::Slice<const uint32_t> spans, float offset,
-                       rust::Vec<VoxelChange>* log) {
+                       rust::Slice<const uint32_t> spans, float offset, bool logged) {
   const size_t expected = size_t(dims[0]) * dims[1] * dims[2];
   if (tool.size() != expected)
     throw std::invalid_argument("tool patch holds " + std::to_string(tool.size()) +
                                 " values, its dimensions need " + std::to_string(expected));
+  if (dims[0] > 0xffff || dims[1] > 0xffff || dims[2] > 0xffff)
+    throw std::invalid_argument("tool patch is over 65535 voxels along an axis");
   const size_t rows = size_t(dims[1]) * dims[2];
   if (!spans.empty() && spans.size() != 2 * rows)
     throw std::invalid_argument("tool patch has " + std::to_string(spans.size() / 2) +
@@ -74,6 +75,8 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   // the tile value in `before`, for pass 2.
   auto& changed = impl.scratch_changed;
   changed.clear();
+  auto& log = impl.scratch_log;
+  log.clear();
   const int fx = floor_to_leaf(index_min[0]), fy = floor_to_leaf(index_min[1]),
             fz = floor_to_leaf(index_min[2]);
   const int nb_x = (hi[0] - fx) / L + 1, nb_y = (hi[1] - fy) / L + 1, nb_z = (hi[2] - fz) / L + 1;
@@ -135,9 +138,10 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
           } else {
             leaf->setValueOff(c, bg);
           }
-          changed.push_back(ChangedVoxel{uint32_t(row + i), old, now});
+          changed.push_back(ChangedVoxel{uint32_t(row + i), uint16_t(xs - n + i), uint16_t(j),
+                                         uint16_t(k), old, now});
           stats.removed_volume += kernels.inside_fraction(old) - kernels.inside_fraction(now);
-          if (log) log->push_back(VoxelChange{c.x(), c.y(), c.z(), old});
+          if (logged) log.push_back(VoxelChange{c.x(), c.y(), c.z(), old});
         }
       }
     }
@@ -163,18 +167,27 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
     }
     o = w = acc.getValue(Coord(index_min[0] + i, index_min[1] + j, index_min[2] + k));
   };
-  static const int nb[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
   double correction = 0.0;
-  const int nx = int(dims[0]), nxy = int(dims[0] * dims[1]);
+  const int nx = int(dims[0]), ny = int(dims[1]), nz = int(dims[2]);
+  const ptrdiff_t step[6] = {1, -1, nx, -nx, ptrdiff_t(nx) * ny, -ptrdiff_t(nx) * ny};
+  static const int nb[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
   const double inv_h2 = 1.0 / (h * h);
   const float eps = float(kernels.eps);
   for (const ChangedVoxel& c : changed) {
-    const int ci = int(c.m) % nx, cj = (int(c.m) / nx) % int(dims[1]), ck = int(c.m) / nxy;
     float sum_old = 0.f;
     double sum_weight = 0.0;
-    for (const auto& d : nb) {
+    const bool inner = c.i > 0 && c.j > 0 && c.k > 0 && c.i + 1 < nx && c.j + 1 < ny && c.k + 1 < nz;
+    for (int q = 0; q < 6; ++q) {
       float o, w;
-      value(ci + d[0], cj + d[1], ck + d[2], o, w);
+      const size_t m = c.m + step[q];
+      const float t = inner ? tp[m] + offset : reach;
+      if (t < reach) {  // read in pass 1
+        o = old_values[m];
+        const float now = -t < bg ? -t : bg;
+        w = t < bg && now > o ? now : o;
+      } else {
+        value(c.i + nb[q][0], c.j + nb[q][1], c.k + nb[q][2], o, w);
+      }
       sum_old += o;
       if (std::fabs(w) < eps) sum_weight += kernels.curvature_weight(w);  // zero beyond eps
     }
@@ -189,13 +202,17 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
 
 CutStats LevelSet::subtract_dense(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
                                   rust::Slice<const float> tool, rust::Slice<const uint32_t> spans) {
-  return subtract_core(*impl, index_min, dims, tool, spans, 0.f, nullptr);
+  return subtract_core(*impl, index_min, dims, tool, spans, 0.f, false);
 }
 
 CutStats LevelSet::subtract_logged(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
                                    rust::Slice<const float> tool, rust::Slice<const uint32_t> spans,
-                                   float offset, rust::Vec<VoxelChange>& log) {
-  return subtract_core(*impl, index_min, dims, tool, spans, offset, &log);
+                                   float offset) {
+  return subtract_core(*impl, index_min, dims, tool, spans, offset, true);
+}
+
+rust::Slice<const VoxelChange> LevelSet::last_changes() const {
+  return {impl->scratch_log.data(), impl->scratch_log.size()};
 }
 
 // Dry run for rate-limited cutting: the volume each offset would remove (smoothed Heaviside only;

@@ -21,9 +21,11 @@ using openvdb::FloatTree;
 // OpenVDB must register its grid and metadata types once per process before file I/O.
 void ensure_initialized();
 
-// A voxel a local cut changed: its index in the tool patch, old and new value.
+// A voxel a local cut changed: its index and box-relative position in the tool patch, old and
+// new value.
 struct ChangedVoxel {
   uint32_t m;
+  uint16_t i, j, k;
   float old, now;
 };
 
@@ -33,6 +35,7 @@ struct LevelSet::Impl {
   // values); never shrinks.
   std::vector<float> scratch_old;
   std::vector<ChangedVoxel> scratch_changed;
+  std::vector<VoxelChange> scratch_log;  // the last logged cut's changes (old values)
   std::vector<FloatTree::LeafNodeType*> scratch_leaves;
   std::vector<float> scratch_tiles;
 };
@@ -79,7 +82,7 @@ struct VolumeKernels {
       : eps(1.5 * h),
         scale(float(kKernelSteps / 2 / eps)),
         m_over_eps(float(eps * (1.0 / 6.0 - 1.0 / (M_PI * M_PI)))) {}
-  float lookup(const float* table, float phi) const {
+  __attribute__((always_inline)) float lookup(const float* table, float phi) const {
     float u = phi * scale + float(kKernelSteps / 2);
     u = u > 0.f ? (u < float(kKernelSteps) ? u : float(kKernelSteps)) : 0.f;  // NaN reads as inside
     const int i = std::min(int(u), kKernelSteps - 1);
@@ -91,8 +94,7 @@ struct VolumeKernels {
 
 CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
                        std::array<uint32_t, 3> dims, rust::Slice<const float> tool,
-                       rust::Slice<const uint32_t> spans, float offset,
-                       rust::Vec<VoxelChange>* log);
+                       rust::Slice<const uint32_t> spans, float offset, bool logged);
 
 // Trilinear value and gradient (world units) at an index-space point.
 template <typename Accessor>

@@ -118,6 +118,15 @@ impl Sweep {
         patch.spans.clear();
         patch.spans.resize(2 * dims.y as usize * dims.z as usize, 0);
         let ball = burr.ball_radius();
+        // A translating ball whose start lies within the done ball: behind the plane through the
+        // start, normal to the motion, the capsule's nearest point is the start, which the done
+        // ball covers, so every voxel there would come out as the cut-off. Rows skip that part.
+        let front = match (ball, done) {
+            (Some(r), Some(d)) if self.centres.len() == 2 && (self.centres[0] - d.centre).length() + r <= d.radius => {
+                Some((self.centres[0], self.centres[1] - self.centres[0]))
+            }
+            _ => None,
+        };
         let (nx, ny) = (dims.x as usize, dims.y as usize);
         for k in lo.z..=hi.z {
             let z = f64::from(k) * voxel;
@@ -139,6 +148,17 @@ impl Sweep {
                 }
                 if x_lo > x_hi {
                     continue;
+                }
+                if let Some((a, u)) = front {
+                    // Keep (p − a)·u > 0 along the row: a half-line in x, or all or nothing.
+                    let rest = (y - a.y) * u.y + (z - a.z) * u.z;
+                    if u.x > 0.0 {
+                        x_lo = x_lo.max(a.x - rest / u.x);
+                    } else if u.x < 0.0 {
+                        x_hi = x_hi.min(a.x - rest / u.x);
+                    } else if rest <= 0.0 {
+                        continue;
+                    }
                 }
                 let i_lo = ((x_lo / voxel).floor() as i32).max(lo.x);
                 let i_hi = ((x_hi / voxel).ceil() as i32).min(hi.x);

@@ -108,8 +108,8 @@ pub(crate) mod ffi {
             tool: &[f32],
             spans: &[u32],
             offset: f32,
-            log: &mut Vec<VoxelChange>,
         ) -> Result<CutStats>;
+        fn last_changes(self: &LevelSet) -> &[VoxelChange];
         fn removal_by_offset(
             self: &LevelSet,
             index_min: [i32; 3],
