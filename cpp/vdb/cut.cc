@@ -75,8 +75,10 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   // the tile value in `before`, for pass 2.
   auto& changed = impl.scratch_changed;
   changed.clear();
+  changed.reserve(expected);  // at most every voxel changes: grown once to the largest patch
   auto& log = impl.scratch_log;
   log.clear();
+  if (logged) log.reserve(expected);
   const int fx = floor_to_leaf(index_min[0]), fy = floor_to_leaf(index_min[1]),
             fz = floor_to_leaf(index_min[2]);
   const int nb_x = (hi[0] - fx) / L + 1, nb_y = (hi[1] - fy) / L + 1, nb_z = (hi[2] - fz) / L + 1;

@@ -142,6 +142,9 @@ impl Cutter {
             }
             deepest_offset = deepest_offset.max(offset);
             self.log.clear();
+            // A tissue changes at most every patch voxel: room for that once, not a regrowth
+            // whenever a tick changes more voxels than any before it.
+            self.log.reserve(self.sweep.patch.values.len());
             let stats = tissue.grid.subtract_logged(&self.sweep.patch, offset, &mut self.log)?;
             if let Some(b) = budget {
                 self.bank.spend(t, stats.removed_mm3, b);
