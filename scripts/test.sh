@@ -7,6 +7,6 @@ source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
 cd "$DENTSIM_ROOT"
 status=0
-cargo test --release --workspace || status=1
+cargo test --release --workspace --no-fail-fast || status=1
 ctest --test-dir "$DENTSIM_PLUGIN_BUILD" --output-on-failure || status=1
 exit $status
