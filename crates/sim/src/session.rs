@@ -299,10 +299,21 @@ pub fn run_session<D: Device + 'static>(model: TissueModel, device: D, options: 
     session.stop()
 }
 
-/// Real-time priority where the system permits it; without permission the thread keeps its
-/// normal priority and the watchdog covers missed deadlines.
+/// Real-time priority where the system permits it: SCHED_FIFO (root, CAP_SYS_NICE or an rtprio
+/// limit), else a raised normal priority; without either the thread keeps its priority and the
+/// watchdog covers missed deadlines. The tick sleeps for most of its period, so a FIFO haptic
+/// thread leaves the mesher and logger most of a core.
 fn raise_priority() {
-    use thread_priority::{ThreadPriority, ThreadPriorityValue};
+    use thread_priority::{
+        set_thread_priority_and_policy, thread_native_id, RealtimeThreadSchedulePolicy, ThreadPriority, ThreadPriorityValue,
+        ThreadSchedulePolicy,
+    };
+    let fifo = ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo);
+    if let Ok(value) = ThreadPriorityValue::try_from(50u8) {
+        if set_thread_priority_and_policy(thread_native_id(), ThreadPriority::Crossplatform(value), fifo).is_ok() {
+            return;
+        }
+    }
     if let Ok(value) = ThreadPriorityValue::try_from(20u8) {
         let _ = thread_priority::set_current_thread_priority(ThreadPriority::Crossplatform(value));
     }
