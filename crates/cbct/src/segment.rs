@@ -11,6 +11,7 @@
 
 use crate::calibrate::Calibration;
 use crate::error::{Error, Result};
+use crate::partial_volume::distance_mm;
 use crate::volume::{LabelVolume, Volume};
 use crate::Label;
 use rayon::prelude::*;
@@ -101,6 +102,124 @@ fn morph(g: &Grid, m: &[bool], grow: bool) -> Vec<bool> {
         *o = if grow { m[n] || nb[..c].iter().any(|&q| m[q]) } else { m[n] && c == 6 && nb.iter().all(|&q| m[q]) };
     });
     out
+}
+
+/// One 6-neighbour erosion of `m` inside a box whose outside counts as set: a mask of what lies
+/// outside the tooth stays open at the box's faces.
+fn erode_in_box(g: &Grid, m: &[bool]) -> Vec<bool> {
+    let mut out = vec![false; m.len()];
+    out.par_iter_mut().enumerate().for_each(|(n, o)| {
+        let mut nb = [0usize; 6];
+        let c = g.nb6(n, &mut nb);
+        *o = m[n] && nb[..c].iter().all(|&q| m[q]);
+    });
+    out
+}
+
+/// A box of the volume (inclusive corners) as a grid of its own.
+struct BoxGrid {
+    g: Grid,
+    lo: [usize; 3],
+    /// the whole volume's x and y sizes
+    stride: [usize; 2],
+}
+
+impl BoxGrid {
+    fn new(lo: [usize; 3], hi: [usize; 3], whole: &Grid) -> BoxGrid {
+        BoxGrid { g: Grid { d: [hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1] }, lo, stride: [whole.d[0], whole.d[1]] }
+    }
+    /// Index in the whole volume of a box index.
+    fn global(&self, l: usize) -> usize {
+        let p = self.g.ijk(l);
+        (p[0] + self.lo[0]) + self.stride[0] * ((p[1] + self.lo[1]) + self.stride[1] * (p[2] + self.lo[2]))
+    }
+    fn on_face(&self, l: usize) -> bool {
+        let p = self.g.ijk(l);
+        (0..3).any(|c| p[c] == 0 || p[c] + 1 == self.g.d[c])
+    }
+    fn gather(&self, m: &[bool]) -> Vec<bool> {
+        (0..self.g.n()).map(|l| m[self.global(l)]).collect()
+    }
+    /// A whole-volume mask set where the box mask is.
+    fn scatter(&self, b: &[bool], n: usize) -> Vec<bool> {
+        let mut out = vec![false; n];
+        for (l, _) in b.iter().enumerate().filter(|(_, v)| **v) {
+            out[self.global(l)] = true;
+        }
+        out
+    }
+}
+
+/// Widest mouth (mm) through which a lesion open to the surface is still told from the outside:
+/// the radius of the ball that closes the tooth's outline over it. A lesion under a fissure whose
+/// roof is thinner than the scan's blur opens ~1.4 mm wide at a 0.25 mm point spread.
+const LESION_MOUTH_MM: f64 = 1.0;
+
+/// Measures of the components of a cavity mask (index 0 = no component).
+struct CavityStats {
+    voxels: usize,
+    /// Deepest voxel's distance from the component's outside, mm.
+    depth: f32,
+    /// Median grey of the deepest voxels (within a voxel of `depth`).
+    grey: f64,
+    /// Border voxels (a 6-neighbour outside the mask), and those within 2 voxels of the enamel.
+    border: usize,
+    border_at_enamel: usize,
+    all: Vec<f32>,
+}
+
+impl CavityStats {
+    /// Lies against the enamel along at least a twentieth of its border.
+    fn at_enamel(&self) -> bool {
+        self.border > 0 && self.border_at_enamel * 20 >= self.border
+    }
+}
+
+fn bid_first(id: &[u32], l: usize) -> bool {
+    id[..l].iter().all(|&x| x != id[l])
+}
+
+fn cavity_stats(bx: &BoxGrid, id: &[u32], count: usize, mask: &[bool], at_enamel: &[bool], vol: &Volume) -> Vec<CavityStats> {
+    let depth = distance_mm(bx.g.d, vol.spacing, &mask.iter().map(|&b| !b).collect::<Vec<bool>>());
+    let h = vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min) as f32;
+    let mut stats: Vec<CavityStats> = (0..count).map(|_| CavityStats { voxels: 0, depth: 0.0, grey: 0.0, border: 0, border_at_enamel: 0, all: Vec::new() }).collect();
+    let mut nb = [0usize; 6];
+    for l in 0..bx.g.n() {
+        let c = id[l] as usize;
+        if c == 0 {
+            continue;
+        }
+        let s = &mut stats[c];
+        s.voxels += 1;
+        s.depth = s.depth.max(depth[l]);
+        s.all.push(vol.values[bx.global(l)]);
+        let k = bx.g.nb6(l, &mut nb);
+        if k < 6 || nb[..k].iter().any(|&q| !mask[q]) {
+            s.border += 1;
+            s.border_at_enamel += usize::from(at_enamel[l]);
+        }
+    }
+    let mut core: Vec<Vec<f32>> = vec![Vec::new(); count];
+    for l in 0..bx.g.n() {
+        let c = id[l] as usize;
+        if c != 0 && depth[l] >= stats[c].depth - h {
+            core[c].push(vol.values[bx.global(l)]);
+        }
+    }
+    for (s, mut v) in stats.iter_mut().zip(core) {
+        if !v.is_empty() {
+            s.grey = median(&mut v) as f64;
+        }
+    }
+    stats
+}
+
+/// What a cavity of the tooth holds, and for the pulp the grey below which a voxel is pulp.
+struct Cavity {
+    class: Label,
+    threshold: f64,
+    /// median grey of its deepest voxels
+    grey: f64,
 }
 
 /// Flood fill (6-connected) over `allowed` from `starts`.
@@ -273,7 +392,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
         None => id.iter().map(|&c| c != 0 && sizes[c as usize] >= opts.min_component_voxels.max(1)).collect(),
     };
     let tooth = keep;
-    // Cavities: not reachable from outside the tooth's box.
+    // Cavities, in a box around the tooth with room for the lesion search's closing.
     let (mut blo, mut bhi) = ([usize::MAX; 3], [0usize; 3]);
     for (m, _) in tooth.iter().enumerate().filter(|(_, t)| **t) {
         let p = g.ijk(m);
@@ -285,24 +404,135 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     if blo[0] == usize::MAX {
         return Ok(out);
     }
+    let h = vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+    let pad = 2 + (LESION_MOUTH_MM / h).ceil() as usize;
     for c in 0..3 {
-        blo[c] = blo[c].saturating_sub(2);
-        bhi[c] = (bhi[c] + 2).min(vol.dims[c] - 1);
+        blo[c] = blo[c].saturating_sub(pad);
+        bhi[c] = (bhi[c] + pad).min(vol.dims[c] - 1);
     }
-    let in_box = |m: usize| {
-        let p = g.ijk(m);
-        (0..3).all(|c| p[c] >= blo[c] && p[c] <= bhi[c])
-    };
-    let on_box_face = |m: usize| {
-        let p = g.ijk(m);
-        (0..3).any(|c| p[c] == blo[c] || p[c] == bhi[c])
-    };
+    let bx = BoxGrid::new(blo, bhi, &g);
+    let bn = bx.g.n();
+    let btooth = bx.gather(&tooth);
+    let grey = |l: usize| f64::from(vol.values[bx.global(l)]);
+    let h = h as f32;
+    let enamel_cut = cal.mid(Label::Dentin, Label::Enamel);
     // Close 1-voxel holes in thin walls (noise, partial volume at root canals) before asking
     // which voxels the outside cannot reach.
-    let closed = morph(&g, &morph(&g, &tooth, true), false);
-    let open: Vec<bool> = (0..n).map(|m| !(tooth[m] || closed[m]) && in_box(m)).collect();
-    let outside = flood(&g, &open, (0..n).filter(|&m| open[m] && on_box_face(m)));
-    let cavity: Vec<bool> = (0..n).map(|m| open[m] && !outside[m]).collect();
+    let closed = morph(&bx.g, &morph(&bx.g, &btooth, true), false);
+    let open: Vec<bool> = (0..bn).map(|l| !(btooth[l] || closed[l])).collect();
+    let enclosed = {
+        let outside = flood(&bx.g, &open, (0..bn).filter(|&l| open[l] && bx.on_face(l)));
+        (0..bn).map(|l| open[l] && !outside[l]).collect::<Vec<bool>>()
+    };
+    // The outside also ends at passages at most 2 voxels wide: a canal behind an apical wall
+    // thinner than the blur, or a lesion under a fissure's thin enamel roof, opens to the outside
+    // in the scan only through such a neck. Behind a neck, only a body at least 3 voxels thick is
+    // a cavity; thinner pockets (the bottoms of fissures) are outside.
+    let behind_neck = {
+        let core = erode_in_box(&bx.g, &open);
+        let reach = flood(&bx.g, &core, (0..bn).filter(|&l| core[l] && bx.on_face(l)));
+        let wide = morph(&bx.g, &reach, true);
+        (0..bn).map(|l| open[l] && !wide[l]).collect::<Vec<bool>>()
+    };
+    let mut bcavity = {
+        let (id, sizes) = components(&bx.g, &behind_neck);
+        let depth = distance_mm(bx.g.d, vol.spacing, &behind_neck.iter().map(|&b| !b).collect::<Vec<bool>>());
+        let (mut keep, mut deepest) = (vec![false; sizes.len()], vec![0f32; sizes.len()]);
+        for l in 0..bn {
+            let c = id[l] as usize;
+            keep[c] |= enclosed[l];
+            deepest[c] = deepest[c].max(depth[l]);
+        }
+        for c in 1..sizes.len() {
+            keep[c] |= deepest[c] >= 2.0 * h - 1e-3;
+        }
+        keep[0] = false;
+        (0..bn).map(|l| keep[id[l] as usize]).collect::<Vec<bool>>()
+    };
+    // Enamel (and metal, for lesions under a restoration): where lesions start.
+    let at_enamel: Vec<bool> = {
+        let seeds: Vec<bool> = (0..bn).map(|l| (btooth[l] && grey(l) > enamel_cut) || out.labels[bx.global(l)] == Label::Metal as u8).collect();
+        distance_mm(bx.g.d, vol.spacing, &seeds).into_iter().map(|d| d <= 2.0 * h + 1e-3).collect()
+    };
+    let lesion_grey = |v: f64| (v - cal.peak(Label::Caries)).abs() < (v - cal.peak(Label::Pulp)).abs();
+    // Lesions open to the surface: a lesion whose roof the scan does not resolve, or a cavitated
+    // one, opens to a fissure through a mouth wider than a neck. It still lies within the tooth's
+    // outline: in a pocket of the tooth closed by a ball of LESION_MOUTH_MM, where the grey is
+    // the lesion's (nearer it than the pulp's, below the hard tissues'), with a body 3 voxels
+    // thick (the partial-volume layer where air meets enamel in a fissure is thinner) that lies
+    // against the enamel.
+    if opts.detect_caries {
+        let solid: Vec<bool> = (0..bn).map(|l| btooth[l] || bcavity[l]).collect();
+        let r = LESION_MOUTH_MM as f32;
+        let grown: Vec<bool> = distance_mm(bx.g.d, vol.spacing, &solid).into_iter().enumerate().map(|(l, d)| d > r || bx.on_face(l)).collect();
+        let envelope = distance_mm(bx.g.d, vol.spacing, &grown);
+        let hard_cut = cal.mid(Label::BoneCortical, Label::Dentin);
+        let pocket: Vec<bool> = (0..bn).map(|l| envelope[l] > r && !solid[l] && lesion_grey(grey(l)) && grey(l) < hard_cut).collect();
+        let (id, sizes) = components(&bx.g, &pocket);
+        let stats = cavity_stats(&bx, &id, sizes.len(), &pocket, &at_enamel, vol);
+        for l in 0..bn {
+            let c = id[l] as usize;
+            if c != 0 && std::env::var_os("DENTSIM_DEBUG_CAVITIES").is_some() && stats[c].voxels > 10 && bid_first(&id, l) {
+                let p = bx.g.ijk(l);
+                eprintln!("pocket {c}: {} voxels depth {:.2} grey {:.0} border at enamel {}/{} first {:?}", stats[c].voxels, stats[c].depth, stats[c].grey, stats[c].border_at_enamel, stats[c].border, p);
+            }
+            if c != 0 && stats[c].depth > 2.0 * h + 1e-3 && stats[c].at_enamel() {
+                bcavity[l] = true;
+            }
+        }
+    }
+    // Cavity classes. A carious lesion starts at the enamel and progresses inward; the pulp is
+    // enclosed in dentin. So a cavity is caries where it lies against the enamel (along a
+    // twentieth of its border or more: a pulp horn near the enamel touches it at a tip) and the
+    // grey of its deepest voxels, the ones least mixed with the hard tissue around by the scan's
+    // blur, is nearer the lesion's than the pulp's. (Its median grey would not do: the blur pulls
+    // a thin pulp's voxels toward the dentin's.) A cavity at the enamel without a body 3 voxels
+    // thick is partial volume, left to the dentin.
+    let (bid, nc) = {
+        let (id, sizes) = components(&bx.g, &bcavity);
+        (id, sizes.len())
+    };
+    let stats = cavity_stats(&bx, &bid, nc, &bcavity, &at_enamel, vol);
+    let dentin_ref = cal.peak(Label::Dentin);
+    let deep = morph(&bx.g, &bcavity, false);
+    let mut deep_vals: Vec<Vec<f32>> = vec![Vec::new(); nc];
+    for l in (0..bn).filter(|&l| deep[l]) {
+        deep_vals[bid[l] as usize].push(vol.values[bx.global(l)]);
+    }
+    let cav_class: Vec<Cavity> = (0..nc)
+        .map(|c| {
+            let s = &stats[c];
+            let class = if c == 0 || s.voxels < opts.min_component_voxels {
+                Label::Dentin
+            } else if !s.at_enamel() {
+                Label::Pulp
+            } else if s.depth <= 2.0 * h + 1e-3 {
+                Label::Dentin
+            } else if opts.detect_caries && lesion_grey(s.grey) {
+                Label::Caries
+            } else {
+                Label::Pulp
+            };
+            if std::env::var_os("DENTSIM_DEBUG_CAVITIES").is_some() && c != 0 {
+                eprintln!("cavity {c}: {} voxels, depth {:.2}, core grey {:.0}, border at enamel {}/{} -> {}", s.voxels, s.depth, s.grey, s.border_at_enamel, s.border, class.name());
+            }
+            // Pulp against dentin at the midpoint of the pulp's grey (its voxels a voxel deep)
+            // and dentin's.
+            let threshold = if class == Label::Pulp {
+                let mut vals = if deep_vals[c].len() >= 8 { std::mem::take(&mut deep_vals[c]) } else { s.all.clone() };
+                0.5 * ((median(&mut vals) as f64).min(dentin_ref) + dentin_ref)
+            } else {
+                0.0
+            };
+            Cavity { class, threshold, grey: s.grey }
+        })
+        .collect();
+    let cavity = bx.scatter(&bcavity, n);
+    let mut cid = vec![0u32; 0];
+    cid.resize(n, 0);
+    for l in (0..bn).filter(|&l| bcavity[l]) {
+        cid[bx.global(l)] = bid[l];
+    }
     let filled: Vec<bool> = (0..n).map(|m| tooth[m] || cavity[m]).collect();
 
     // Outer surface refinement in a 2-voxel ring on both sides of the filled tooth's surface.
@@ -350,42 +580,16 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             surface_label[m] = l as u8;
         }
     }
-    // Cavity components: pulp or caries by their own median grey value.
-    let (cid, csizes) = components(&g, &cavity);
-    let mut cav_vals: Vec<Vec<f32>> = vec![Vec::new(); csizes.len()];
-    let deep = morph(&g, &cavity, false);
-    for m in 0..n {
-        if cid[m] != 0 {
-            cav_vals[cid[m] as usize].push(vol.values[m]);
-        }
-    }
-    let mut deep_vals: Vec<Vec<f32>> = vec![Vec::new(); csizes.len()];
-    for m in 0..n {
-        if deep[m] && cid[m] != 0 {
-            deep_vals[cid[m] as usize].push(vol.values[m]);
-        }
-    }
-    let (pulp_ref, caries_ref, dentin_ref) = (cal.peak(Label::Pulp), cal.peak(Label::Caries), cal.peak(Label::Dentin));
-    let cav_class: Vec<(Label, f64)> = (0..csizes.len())
-        .map(|c| {
-            if c == 0 || csizes[c] < opts.min_component_voxels {
-                return (Label::Dentin, 0.0);
-            }
-            let vals = if deep_vals[c].len() >= 8 { &mut deep_vals[c] } else { &mut cav_vals[c] };
-            let med = median(vals) as f64;
-            let is_caries = opts.detect_caries && (med - caries_ref).abs() < (med - pulp_ref).abs();
-            let class = if is_caries { Label::Caries } else { Label::Pulp };
-            // Threshold against dentin at the midpoint of this cavity's measured grey and dentin's.
-            (class, 0.5 * (med.min(dentin_ref) + dentin_ref))
-        })
-        .collect();
-    let enamel_cut = cal.mid(Label::Dentin, Label::Enamel);
     for m in 0..n {
         let l = &mut out.labels[m];
         if refined[m] {
             *l = if cid[m] != 0 {
-                let (class, thr) = cav_class[cid[m] as usize];
-                if class != Label::Dentin && (vol.values[m] as f64) < thr { class } else { Label::Dentin }
+                let cav = &cav_class[cid[m] as usize];
+                match cav.class {
+                    Label::Pulp if (vol.values[m] as f64) < cav.threshold => Label::Pulp,
+                    Label::Caries => Label::Caries,
+                    _ => Label::Dentin,
+                }
             } else if surface_label[m] != 0 {
                 if surface_label[m] == Label::Enamel as u8 || (vol.values[m] as f64) <= enamel_cut { Label::from_u8(surface_label[m]).unwrap_or(Label::Dentin) } else { Label::Enamel }
             } else if (vol.values[m] as f64) > enamel_cut {
@@ -399,7 +603,90 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             *l = Label::BoneCortical as u8;
         }
     }
+    let lesion: Vec<bool> = (0..bn).map(|l| bcavity[l] && cav_class[bid[l] as usize].class == Label::Caries).collect();
+    if lesion.contains(&true) {
+        refine_lesion_border(&bx, &lesion, &bid, &cav_class, vol, cal, &mut out.labels);
+    }
     Ok(out)
+}
+
+/// Moves a lesion's border to where the grey is midway between the lesion's (its deepest
+/// voxels') and the neighbouring tissue's, voxel by voxel, as partial volume puts it: the enamel's
+/// against the enamel, the dentin's against the dentin, the outside's at an open mouth. The
+/// cavity that found the lesion ends at the hard tissue threshold, which lies inside the
+/// lesion against the enamel and outside it against the dentin. Looks two voxels to each side
+/// of the border; a voxel's neighbouring tissue is the most frequent label among the voxels
+/// within 3 voxels of it and 2 or more voxels from the lesion. The lesion grows only into the
+/// tooth (enamel, dentin), never into the outside.
+fn refine_lesion_border(bx: &BoxGrid, lesion: &[bool], id: &[u32], cav: &[Cavity], vol: &Volume, cal: &Calibration, labels: &mut [u8]) {
+    let h = vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min) as f32;
+    let outside_lesion: Vec<bool> = lesion.iter().map(|&b| !b).collect();
+    let depth = distance_mm(bx.g.d, vol.spacing, &outside_lesion);
+    let away = distance_mm(bx.g.d, vol.spacing, lesion);
+    let band = 2.0 * h + 1e-3;
+    let (enamel, dentin, pulp) = (Label::Enamel as u8, Label::Dentin as u8, Label::Pulp as u8);
+    let d = bx.g.d;
+    let zone: Vec<usize> = (0..bx.g.n())
+        .filter(|&l| if lesion[l] { depth[l] <= band } else { away[l] <= band && [enamel, dentin].contains(&labels[bx.global(l)]) })
+        .collect();
+    let decisions: Vec<(usize, Option<Label>)> = zone
+        .par_iter()
+        .map(|&l| {
+            let p = bx.g.ijk(l);
+            let mut counts = [0usize; 4]; // enamel, dentin, pulp, outside
+            let mut outside_grey = Vec::new();
+            let mut lesion_id = 0u32;
+            for dk in -3i64..=3 {
+                for dj in -3i64..=3 {
+                    for di in -3i64..=3 {
+                        let q = [p[0] as i64 + di, p[1] as i64 + dj, p[2] as i64 + dk];
+                        if (0..3).any(|c| q[c] < 0 || q[c] >= d[c] as i64) {
+                            continue;
+                        }
+                        let t = q[0] as usize + d[0] * (q[1] as usize + d[1] * q[2] as usize);
+                        if lesion[t] {
+                            lesion_id = lesion_id.max(id[t]);
+                        } else if away[t] >= 2.0 * h - 1e-3 {
+                            let lab = labels[bx.global(t)];
+                            let k = if lab == enamel { 0 } else if lab == dentin { 1 } else if lab == pulp { 2 } else { 3 };
+                            counts[k] += 1;
+                            if k == 3 {
+                                outside_grey.push(vol.values[bx.global(t)]);
+                            }
+                        }
+                    }
+                }
+            }
+            let k = (0..4).max_by_key(|&k| counts[k]).unwrap_or(1);
+            if counts[k] == 0 || lesion_id == 0 {
+                return (l, None);
+            }
+            let neighbour = match k {
+                0 => Label::Enamel,
+                1 => Label::Dentin,
+                2 => Label::Pulp,
+                _ => snap(median(&mut outside_grey) as f64, cal, &[Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical]),
+            };
+            let g = f64::from(vol.values[bx.global(l)]);
+            let lesion_grey = cav[lesion_id as usize].grey;
+            let is_lesion = (g - lesion_grey).abs() < (g - cal.peak(neighbour)).abs();
+            let new = if is_lesion {
+                Label::Caries
+            } else if !lesion[l] {
+                return (l, None);
+            } else if k < 3 {
+                neighbour
+            } else {
+                cal.classify(g)
+            };
+            (l, Some(new))
+        })
+        .collect();
+    for (l, new) in decisions {
+        if let Some(x) = new {
+            labels[bx.global(l)] = x as u8;
+        }
+    }
 }
 
 /// Dice overlap of one label between two label volumes (1 = identical; 1 when both lack it).
