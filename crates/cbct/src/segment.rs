@@ -116,11 +116,11 @@ fn erode_in_box(g: &Grid, m: &[bool]) -> Vec<bool> {
     out
 }
 
-/// A box of the volume (inclusive corners) as a grid of its own.
+/// A box of a grid (inclusive corners) as a grid of its own.
 struct BoxGrid {
     g: Grid,
     lo: [usize; 3],
-    /// the whole volume's x and y sizes
+    /// the parent grid's x and y sizes
     stride: [usize; 2],
 }
 
@@ -128,7 +128,7 @@ impl BoxGrid {
     fn new(lo: [usize; 3], hi: [usize; 3], whole: &Grid) -> BoxGrid {
         BoxGrid { g: Grid { d: [hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1] }, lo, stride: [whole.d[0], whole.d[1]] }
     }
-    /// Index in the whole volume of a box index.
+    /// Index in the parent grid of a box index.
     fn global(&self, l: usize) -> usize {
         let p = self.g.ijk(l);
         (p[0] + self.lo[0]) + self.stride[0] * ((p[1] + self.lo[1]) + self.stride[1] * (p[2] + self.lo[2]))
@@ -137,16 +137,8 @@ impl BoxGrid {
         let p = self.g.ijk(l);
         (0..3).any(|c| p[c] == 0 || p[c] + 1 == self.g.d[c])
     }
-    fn gather(&self, m: &[bool]) -> Vec<bool> {
+    fn gather<T: Copy>(&self, m: &[T]) -> Vec<T> {
         (0..self.g.n()).map(|l| m[self.global(l)]).collect()
-    }
-    /// A whole-volume mask set where the box mask is.
-    fn scatter(&self, b: &[bool], n: usize) -> Vec<bool> {
-        let mut out = vec![false; n];
-        for (l, _) in b.iter().enumerate().filter(|(_, v)| **v) {
-            out[self.global(l)] = true;
-        }
-        out
     }
 }
 
@@ -154,6 +146,16 @@ impl BoxGrid {
 /// the radius of the ball that closes the tooth's outline over it. A lesion under a fissure whose
 /// roof is thinner than the scan's blur opens ~1.4 mm wide at a 0.25 mm point spread.
 const LESION_MOUTH_MM: f64 = 1.0;
+
+/// A cavity found behind a neck or in a pocket of the outline, or a lesion, must have a body:
+/// a voxel more than this many voxels from its outside (a ball 5 voxels across). The
+/// partial-volume layer where air meets enamel in a fissure is thinner.
+const BODY_VOXELS: f32 = 2.0;
+
+/// Share of a cavity's border lying against the enamel from which it is a lesion's (a pulp horn
+/// near the enamel touches it at a tip: under 1 % of the pulp's border on the phantom; the
+/// lesion, 29–86 % over 0.1–0.25 mm of blur).
+const LESION_BORDER_AT_ENAMEL: f64 = 0.05;
 
 /// Measures of the components of a cavity mask (index 0 = no component).
 struct CavityStats {
@@ -169,22 +171,21 @@ struct CavityStats {
 }
 
 impl CavityStats {
-    /// Lies against the enamel along at least a twentieth of its border.
     fn at_enamel(&self) -> bool {
-        self.border > 0 && self.border_at_enamel * 20 >= self.border
+        self.border > 0 && self.border_at_enamel as f64 >= LESION_BORDER_AT_ENAMEL * self.border as f64
+    }
+    fn has_body(&self, h: f32) -> bool {
+        self.depth > BODY_VOXELS * h + 1e-3
     }
 }
 
-fn bid_first(id: &[u32], l: usize) -> bool {
-    id[..l].iter().all(|&x| x != id[l])
-}
-
-fn cavity_stats(bx: &BoxGrid, id: &[u32], count: usize, mask: &[bool], at_enamel: &[bool], vol: &Volume) -> Vec<CavityStats> {
-    let depth = distance_mm(bx.g.d, vol.spacing, &mask.iter().map(|&b| !b).collect::<Vec<bool>>());
-    let h = vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min) as f32;
+/// Measures of the components `id` (of `mask`) on grid `g`, whose grey values are `vals`.
+fn cavity_stats(g: &Grid, id: &[u32], count: usize, mask: &[bool], at_enamel: &[bool], vals: &[f32], spacing: [f64; 3]) -> Vec<CavityStats> {
+    let depth = distance_mm(g.d, spacing, &mask.iter().map(|&b| !b).collect::<Vec<bool>>());
+    let h = spacing.iter().cloned().fold(f64::INFINITY, f64::min) as f32;
     let mut stats: Vec<CavityStats> = (0..count).map(|_| CavityStats { voxels: 0, depth: 0.0, grey: 0.0, border: 0, border_at_enamel: 0, all: Vec::new() }).collect();
     let mut nb = [0usize; 6];
-    for l in 0..bx.g.n() {
+    for l in 0..g.n() {
         let c = id[l] as usize;
         if c == 0 {
             continue;
@@ -192,18 +193,18 @@ fn cavity_stats(bx: &BoxGrid, id: &[u32], count: usize, mask: &[bool], at_enamel
         let s = &mut stats[c];
         s.voxels += 1;
         s.depth = s.depth.max(depth[l]);
-        s.all.push(vol.values[bx.global(l)]);
-        let k = bx.g.nb6(l, &mut nb);
+        s.all.push(vals[l]);
+        let k = g.nb6(l, &mut nb);
         if k < 6 || nb[..k].iter().any(|&q| !mask[q]) {
             s.border += 1;
             s.border_at_enamel += usize::from(at_enamel[l]);
         }
     }
     let mut core: Vec<Vec<f32>> = vec![Vec::new(); count];
-    for l in 0..bx.g.n() {
+    for l in 0..g.n() {
         let c = id[l] as usize;
         if c != 0 && depth[l] >= stats[c].depth - h {
-            core[c].push(vol.values[bx.global(l)]);
+            core[c].push(vals[l]);
         }
     }
     for (s, mut v) in stats.iter_mut().zip(core) {
@@ -214,12 +215,93 @@ fn cavity_stats(bx: &BoxGrid, id: &[u32], count: usize, mask: &[bool], at_enamel
     stats
 }
 
+/// Voxels within `r` mm of a seed voxel (Euclidean), by stamping a ball at each seed that has a
+/// 6-neighbour off the seed mask (the inside is covered by the seeds themselves). Cost ∝ seed
+/// surface × ball volume: for a radius of a few voxels, far below a distance transform.
+fn within(g: &Grid, seeds: &[bool], r: f64, spacing: [f64; 3]) -> Vec<bool> {
+    let reach = [0, 1, 2].map(|c| (r / spacing[c]).floor() as i64);
+    let mut ball = Vec::new();
+    for dk in -reach[2]..=reach[2] {
+        for dj in -reach[1]..=reach[1] {
+            for di in -reach[0]..=reach[0] {
+                let d2 = (di as f64 * spacing[0]).powi(2) + (dj as f64 * spacing[1]).powi(2) + (dk as f64 * spacing[2]).powi(2);
+                if d2 <= r * r * (1.0 + 1e-9) {
+                    ball.push([di, dj, dk]);
+                }
+            }
+        }
+    }
+    let mut out = seeds.to_vec();
+    let mut nb = [0usize; 6];
+    for s in 0..g.n() {
+        if !seeds[s] {
+            continue;
+        }
+        let k = g.nb6(s, &mut nb);
+        if k == 6 && nb.iter().all(|&q| seeds[q]) {
+            continue;
+        }
+        let p = g.ijk(s);
+        for o in &ball {
+            let q = [p[0] as i64 + o[0], p[1] as i64 + o[1], p[2] as i64 + o[2]];
+            if (0..3).all(|c| q[c] >= 0 && q[c] < g.d[c] as i64) {
+                out[q[0] as usize + g.d[0] * (q[1] as usize + g.d[1] * q[2] as usize)] = true;
+            }
+        }
+    }
+    out
+}
+
 /// What a cavity of the tooth holds, and for the pulp the grey below which a voxel is pulp.
 struct Cavity {
     class: Label,
     threshold: f64,
     /// median grey of its deepest voxels
     grey: f64,
+}
+
+/// Adds to `candidates` the lesions open to the surface. A lesion whose enamel roof is thinner
+/// than the scan's blur, or a cavitated one, opens to a fissure through a mouth wider than a
+/// neck, yet lies within the tooth's outline: in a pocket of the tooth (with its cavities)
+/// closed by a ball of LESION_MOUTH_MM, where the grey is the lesion's (`lesion_grey`), with a
+/// body (BODY_VOXELS), against the enamel. Searched only around the enamel, where lesions lie:
+/// a sub-box of the enamel's bounds grown by twice the ball (so the box's faces, which count as
+/// outside, do not narrow the closing there).
+fn open_lesions(bx: &BoxGrid, tooth: &[bool], enamel: &[bool], at_enamel: &[bool], vals: &[f32], spacing: [f64; 3], lesion_grey: &dyn Fn(f64) -> bool, candidates: &mut [bool]) {
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    for (l, _) in enamel.iter().enumerate().filter(|(_, e)| **e) {
+        let p = bx.g.ijk(l);
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    if lo[0] == usize::MAX {
+        return;
+    }
+    let h = spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+    let pad = 2 + (2.0 * LESION_MOUTH_MM / h).ceil() as usize;
+    for c in 0..3 {
+        lo[c] = lo[c].saturating_sub(pad);
+        hi[c] = (hi[c] + pad).min(bx.g.d[c] - 1);
+    }
+    let sub = BoxGrid::new(lo, hi, &bx.g);
+    let sn = sub.g.n();
+    let solid: Vec<bool> = (0..sn).map(|l| tooth[sub.global(l)] || candidates[sub.global(l)]).collect();
+    let r = LESION_MOUTH_MM as f32;
+    let grown: Vec<bool> = distance_mm(sub.g.d, spacing, &solid).into_iter().enumerate().map(|(l, d)| d > r || sub.on_face(l)).collect();
+    let closed = distance_mm(sub.g.d, spacing, &grown);
+    let svals = sub.gather(vals);
+    let pocket: Vec<bool> = (0..sn).map(|l| closed[l] > r && !solid[l] && lesion_grey(f64::from(svals[l]))).collect();
+    let (id, sizes) = components(&sub.g, &pocket);
+    let stats = cavity_stats(&sub.g, &id, sizes.len(), &pocket, &sub.gather(at_enamel), &svals, spacing);
+    let h = h as f32;
+    for l in 0..sn {
+        let s = &stats[id[l] as usize];
+        if id[l] != 0 && s.has_body(h) && s.at_enamel() {
+            candidates[sub.global(l)] = true;
+        }
+    }
 }
 
 /// Flood fill (6-connected) over `allowed` from `starts`.
@@ -413,7 +495,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     let bx = BoxGrid::new(blo, bhi, &g);
     let bn = bx.g.n();
     let btooth = bx.gather(&tooth);
-    let grey = |l: usize| f64::from(vol.values[bx.global(l)]);
+    let bvals = bx.gather(&vol.values);
     let h = h as f32;
     let enamel_cut = cal.mid(Label::Dentin, Label::Enamel);
     // Close 1-voxel holes in thin walls (noise, partial volume at root canals) before asking
@@ -426,96 +508,59 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     };
     // The outside also ends at passages at most 2 voxels wide: a canal behind an apical wall
     // thinner than the blur, or a lesion under a fissure's thin enamel roof, opens to the outside
-    // in the scan only through such a neck. Behind a neck, only a body at least 3 voxels thick is
-    // a cavity; thinner pockets (the bottoms of fissures) are outside.
+    // in the scan only through such a neck. Behind a neck, only a body (BODY_VOXELS) is a cavity;
+    // thinner pockets (the bottoms of fissures) are outside.
     let behind_neck = {
         let core = erode_in_box(&bx.g, &open);
         let reach = flood(&bx.g, &core, (0..bn).filter(|&l| core[l] && bx.on_face(l)));
         let wide = morph(&bx.g, &reach, true);
         (0..bn).map(|l| open[l] && !wide[l]).collect::<Vec<bool>>()
     };
-    let mut bcavity = {
-        let (id, sizes) = components(&bx.g, &behind_neck);
-        let depth = distance_mm(bx.g.d, vol.spacing, &behind_neck.iter().map(|&b| !b).collect::<Vec<bool>>());
-        let (mut keep, mut deepest) = (vec![false; sizes.len()], vec![0f32; sizes.len()]);
-        for l in 0..bn {
-            let c = id[l] as usize;
-            keep[c] |= enclosed[l];
-            deepest[c] = deepest[c].max(depth[l]);
-        }
-        for c in 1..sizes.len() {
-            keep[c] |= deepest[c] >= 2.0 * h - 1e-3;
-        }
-        keep[0] = false;
-        (0..bn).map(|l| keep[id[l] as usize]).collect::<Vec<bool>>()
-    };
     // Enamel (and metal, for lesions under a restoration): where lesions start.
-    let at_enamel: Vec<bool> = {
-        let seeds: Vec<bool> = (0..bn).map(|l| (btooth[l] && grey(l) > enamel_cut) || out.labels[bx.global(l)] == Label::Metal as u8).collect();
-        distance_mm(bx.g.d, vol.spacing, &seeds).into_iter().map(|d| d <= 2.0 * h + 1e-3).collect()
-    };
+    let enamel: Vec<bool> = (0..bn).map(|l| (btooth[l] && f64::from(bvals[l]) > enamel_cut) || out.labels[bx.global(l)] == Label::Metal as u8).collect();
+    let at_enamel = within(&bx.g, &enamel, 2.0 * f64::from(h), vol.spacing);
     let lesion_grey = |v: f64| (v - cal.peak(Label::Caries)).abs() < (v - cal.peak(Label::Pulp)).abs();
-    // Lesions open to the surface: a lesion whose roof the scan does not resolve, or a cavitated
-    // one, opens to a fissure through a mouth wider than a neck. It still lies within the tooth's
-    // outline: in a pocket of the tooth closed by a ball of LESION_MOUTH_MM, where the grey is
-    // the lesion's (nearer it than the pulp's, below the hard tissues'), with a body 3 voxels
-    // thick (the partial-volume layer where air meets enamel in a fissure is thinner) that lies
-    // against the enamel.
+    let mut candidates = behind_neck;
     if opts.detect_caries {
-        let solid: Vec<bool> = (0..bn).map(|l| btooth[l] || bcavity[l]).collect();
-        let r = LESION_MOUTH_MM as f32;
-        let grown: Vec<bool> = distance_mm(bx.g.d, vol.spacing, &solid).into_iter().enumerate().map(|(l, d)| d > r || bx.on_face(l)).collect();
-        let envelope = distance_mm(bx.g.d, vol.spacing, &grown);
-        let hard_cut = cal.mid(Label::BoneCortical, Label::Dentin);
-        let pocket: Vec<bool> = (0..bn).map(|l| envelope[l] > r && !solid[l] && lesion_grey(grey(l)) && grey(l) < hard_cut).collect();
-        let (id, sizes) = components(&bx.g, &pocket);
-        let stats = cavity_stats(&bx, &id, sizes.len(), &pocket, &at_enamel, vol);
-        for l in 0..bn {
-            let c = id[l] as usize;
-            if c != 0 && std::env::var_os("DENTSIM_DEBUG_CAVITIES").is_some() && stats[c].voxels > 10 && bid_first(&id, l) {
-                let p = bx.g.ijk(l);
-                eprintln!("pocket {c}: {} voxels depth {:.2} grey {:.0} border at enamel {}/{} first {:?}", stats[c].voxels, stats[c].depth, stats[c].grey, stats[c].border_at_enamel, stats[c].border, p);
-            }
-            if c != 0 && stats[c].depth > 2.0 * h + 1e-3 && stats[c].at_enamel() {
-                bcavity[l] = true;
-            }
-        }
+        open_lesions(&bx, &btooth, &enamel, &at_enamel, &bvals, vol.spacing, &|v| lesion_grey(v) && v < cal.mid(Label::BoneCortical, Label::Dentin), &mut candidates);
     }
-    // Cavity classes. A carious lesion starts at the enamel and progresses inward; the pulp is
-    // enclosed in dentin. So a cavity is caries where it lies against the enamel (along a
-    // twentieth of its border or more: a pulp horn near the enamel touches it at a tip) and the
-    // grey of its deepest voxels, the ones least mixed with the hard tissue around by the scan's
-    // blur, is nearer the lesion's than the pulp's. (Its median grey would not do: the blur pulls
-    // a thin pulp's voxels toward the dentin's.) A cavity at the enamel without a body 3 voxels
-    // thick is partial volume, left to the dentin.
     let (bid, nc) = {
-        let (id, sizes) = components(&bx.g, &bcavity);
+        let (id, sizes) = components(&bx.g, &candidates);
         (id, sizes.len())
     };
-    let stats = cavity_stats(&bx, &bid, nc, &bcavity, &at_enamel, vol);
+    let stats = cavity_stats(&bx.g, &bid, nc, &candidates, &at_enamel, &bvals, vol.spacing);
+    let mut is_enclosed = vec![false; nc];
+    for l in (0..bn).filter(|&l| enclosed[l]) {
+        is_enclosed[bid[l] as usize] = true;
+    }
+    let kept: Vec<bool> = (0..nc).map(|c| c != 0 && (is_enclosed[c] || stats[c].has_body(h))).collect();
+    let bcavity: Vec<bool> = (0..bn).map(|l| kept[bid[l] as usize]).collect();
+    // Cavity classes. A carious lesion starts at the enamel and progresses inward; the pulp is
+    // enclosed in dentin. So a cavity is caries where it lies against the enamel (along a good
+    // share of its border, LESION_BORDER_AT_ENAMEL) and the grey of its deepest voxels, the ones
+    // least mixed with the hard tissue around by the scan's blur, is nearer the lesion's than the
+    // pulp's. (Its median grey would not do: the blur pulls a thin pulp's voxels toward the
+    // dentin's.) A cavity at the enamel without a body is partial volume, left to the dentin.
     let dentin_ref = cal.peak(Label::Dentin);
     let deep = morph(&bx.g, &bcavity, false);
     let mut deep_vals: Vec<Vec<f32>> = vec![Vec::new(); nc];
     for l in (0..bn).filter(|&l| deep[l]) {
-        deep_vals[bid[l] as usize].push(vol.values[bx.global(l)]);
+        deep_vals[bid[l] as usize].push(bvals[l]);
     }
     let cav_class: Vec<Cavity> = (0..nc)
         .map(|c| {
             let s = &stats[c];
-            let class = if c == 0 || s.voxels < opts.min_component_voxels {
+            let class = if !kept[c] || s.voxels < opts.min_component_voxels {
                 Label::Dentin
             } else if !s.at_enamel() {
                 Label::Pulp
-            } else if s.depth <= 2.0 * h + 1e-3 {
+            } else if !s.has_body(h) {
                 Label::Dentin
             } else if opts.detect_caries && lesion_grey(s.grey) {
                 Label::Caries
             } else {
                 Label::Pulp
             };
-            if std::env::var_os("DENTSIM_DEBUG_CAVITIES").is_some() && c != 0 {
-                eprintln!("cavity {c}: {} voxels, depth {:.2}, core grey {:.0}, border at enamel {}/{} -> {}", s.voxels, s.depth, s.grey, s.border_at_enamel, s.border, class.name());
-            }
             // Pulp against dentin at the midpoint of the pulp's grey (its voxels a voxel deep)
             // and dentin's.
             let threshold = if class == Label::Pulp {
@@ -527,37 +572,33 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             Cavity { class, threshold, grey: s.grey }
         })
         .collect();
-    let cavity = bx.scatter(&bcavity, n);
-    let mut cid = vec![0u32; 0];
-    cid.resize(n, 0);
-    for l in (0..bn).filter(|&l| bcavity[l]) {
-        cid[bx.global(l)] = bid[l];
-    }
-    let filled: Vec<bool> = (0..n).map(|m| tooth[m] || cavity[m]).collect();
+    let filled: Vec<bool> = (0..bn).map(|l| btooth[l] || bcavity[l]).collect();
 
-    // Outer surface refinement in a 2-voxel ring on both sides of the filled tooth's surface.
-    let near_out = morph(&g, &morph(&g, &filled, true), true);
-    let inner = morph(&g, &morph(&g, &filled, false), false);
-    let ring: Vec<usize> = (0..n).filter(|&m| near_out[m] && !inner[m] && !cavity[m]).collect();
+    // Outer surface refinement in a 2-voxel ring on both sides of the filled tooth's surface
+    // (inside the box: it reaches LESION_MOUTH_MM + 2 voxels beyond the tooth).
+    let near_out = morph(&bx.g, &morph(&bx.g, &filled, true), true);
+    let inner = morph(&bx.g, &morph(&bx.g, &filled, false), false);
+    let ring: Vec<usize> = (0..bn).filter(|&l| near_out[l] && !inner[l] && !bcavity[l]).collect();
     let outside_classes = [Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical];
     let hard = [Label::Dentin, Label::Enamel];
+    let d = bx.g.d;
     let decisions: Vec<(usize, Option<Label>)> = ring
         .par_iter()
-        .map(|&m| {
-            let p = g.ijk(m);
+        .map(|&l| {
+            let p = bx.g.ijk(l);
             let (mut ins, mut outs) = (Vec::with_capacity(125), Vec::with_capacity(125));
             for dk in -2i64..=2 {
                 for dj in -2i64..=2 {
                     for di in -2i64..=2 {
                         let q = [p[0] as i64 + di, p[1] as i64 + dj, p[2] as i64 + dk];
-                        if (0..3).any(|c| q[c] < 0 || q[c] >= g.d[c] as i64) {
+                        if (0..3).any(|c| q[c] < 0 || q[c] >= d[c] as i64) {
                             continue;
                         }
-                        let t = q[0] as usize + g.d[0] * (q[1] as usize + g.d[1] * q[2] as usize);
-                        if inner[t] && tooth[t] {
-                            ins.push(vol.values[t]);
+                        let t = q[0] as usize + d[0] * (q[1] as usize + d[1] * q[2] as usize);
+                        if inner[t] && btooth[t] {
+                            ins.push(bvals[t]);
                         } else if !filled[t] {
-                            outs.push(vol.values[t]);
+                            outs.push(bvals[t]);
                         }
                     }
                 }
@@ -567,72 +608,90 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             // Roots sit in bone behind a periodontal ligament (soft tissue, ~0.2 mm): the
             // surface there is the dentin/ligament edge, so the ligament is the outside partner.
             let mu_out = if matches!(mu_out, Label::BoneCancellous | Label::BoneCortical) { Label::SoftTissue } else { mu_out };
-            let inside = vol.values[m] as f64 > cal.mid(mu_in, mu_out);
-            (m, inside.then_some(mu_in))
+            let inside = bvals[l] as f64 > cal.mid(mu_in, mu_out);
+            (l, inside.then_some(mu_in))
         })
         .collect();
-    let mut refined = filled.clone();
-    let mut surface_label = vec![0u8; 0];
-    surface_label.resize(n, 0);
-    for (m, d) in decisions {
-        refined[m] = d.is_some();
-        if let Some(l) = d {
-            surface_label[m] = l as u8;
+    let mut refined = filled;
+    let mut surface_label = vec![0u8; bn];
+    for (l, d) in decisions {
+        refined[l] = d.is_some();
+        if let Some(x) = d {
+            surface_label[l] = x as u8;
         }
     }
-    for m in 0..n {
-        let l = &mut out.labels[m];
-        if refined[m] {
-            *l = if cid[m] != 0 {
-                let cav = &cav_class[cid[m] as usize];
-                match cav.class {
-                    Label::Pulp if (vol.values[m] as f64) < cav.threshold => Label::Pulp,
-                    Label::Caries => Label::Caries,
-                    _ => Label::Dentin,
-                }
-            } else if surface_label[m] != 0 {
-                if surface_label[m] == Label::Enamel as u8 || (vol.values[m] as f64) <= enamel_cut { Label::from_u8(surface_label[m]).unwrap_or(Label::Dentin) } else { Label::Enamel }
-            } else if (vol.values[m] as f64) > enamel_cut {
-                Label::Enamel
-            } else {
-                Label::Dentin
-            } as u8;
-        } else if is_hard(*l) && opts.tooth.is_some() {
-            *l = Label::BoneCortical as u8;
-        } else if is_hard(*l) {
+    // Hard tissue is this tooth's only where refined; elsewhere (bone, other teeth) it is
+    // reported as bone_cortical.
+    out.labels.par_iter_mut().for_each(|l| {
+        if is_hard(*l) {
             *l = Label::BoneCortical as u8;
         }
+    });
+    for l in (0..bn).filter(|&l| refined[l]) {
+        let v = f64::from(bvals[l]);
+        out.labels[bx.global(l)] = if bcavity[l] {
+            let cav = &cav_class[bid[l] as usize];
+            match cav.class {
+                Label::Pulp if v < cav.threshold => Label::Pulp,
+                Label::Caries => Label::Caries,
+                _ => Label::Dentin,
+            }
+        } else if surface_label[l] != 0 {
+            if surface_label[l] == Label::Enamel as u8 || v <= enamel_cut { Label::from_u8(surface_label[l]).unwrap_or(Label::Dentin) } else { Label::Enamel }
+        } else if v > enamel_cut {
+            Label::Enamel
+        } else {
+            Label::Dentin
+        } as u8;
     }
     let lesion: Vec<bool> = (0..bn).map(|l| bcavity[l] && cav_class[bid[l] as usize].class == Label::Caries).collect();
     if lesion.contains(&true) {
-        refine_lesion_border(&bx, &lesion, &bid, &cav_class, vol, cal, &mut out.labels);
+        refine_lesion_border(&bx, &lesion, &bid, &cav_class, &bvals, vol.spacing, cal, &mut out.labels);
     }
     Ok(out)
 }
 
 /// Moves a lesion's border to where the grey is midway between the lesion's (its deepest
 /// voxels') and the neighbouring tissue's, voxel by voxel, as partial volume puts it: the enamel's
-/// against the enamel, the dentin's against the dentin, the outside's at an open mouth. The
-/// cavity that found the lesion ends at the hard tissue threshold, which lies inside the
-/// lesion against the enamel and outside it against the dentin. Looks two voxels to each side
-/// of the border; a voxel's neighbouring tissue is the most frequent label among the voxels
-/// within 3 voxels of it and 2 or more voxels from the lesion. The lesion grows only into the
-/// tooth (enamel, dentin), never into the outside.
-fn refine_lesion_border(bx: &BoxGrid, lesion: &[bool], id: &[u32], cav: &[Cavity], vol: &Volume, cal: &Calibration, labels: &mut [u8]) {
-    let h = vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min) as f32;
-    let outside_lesion: Vec<bool> = lesion.iter().map(|&b| !b).collect();
-    let depth = distance_mm(bx.g.d, vol.spacing, &outside_lesion);
-    let away = distance_mm(bx.g.d, vol.spacing, lesion);
+/// against the enamel, the dentin's against the dentin, the outside's at an open mouth. (The
+/// cavity that found the lesion ends at the hard tissues' threshold, which lies inside the lesion
+/// against the enamel and outside it against the dentin.) Looks two voxels to each side of the
+/// border; a voxel's neighbouring tissue is the most frequent label among the voxels within 3
+/// voxels of it and 2 or more voxels from the lesion. The lesion grows only into the tooth
+/// (enamel, dentin), never into the outside. Works in the lesions' box grown by 6 voxels.
+#[allow(clippy::too_many_arguments)]
+fn refine_lesion_border(bx: &BoxGrid, lesion: &[bool], id: &[u32], cav: &[Cavity], vals: &[f32], spacing: [f64; 3], cal: &Calibration, labels: &mut [u8]) {
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    for (l, _) in lesion.iter().enumerate().filter(|(_, x)| **x) {
+        let p = bx.g.ijk(l);
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    if lo[0] == usize::MAX {
+        return;
+    }
+    for c in 0..3 {
+        lo[c] = lo[c].saturating_sub(6);
+        hi[c] = (hi[c] + 6).min(bx.g.d[c] - 1);
+    }
+    let sub = BoxGrid::new(lo, hi, &bx.g);
+    let (lesion, id, vals) = (sub.gather(lesion), sub.gather(id), sub.gather(vals));
+    let global = |l: usize| bx.global(sub.global(l));
+    let h = spacing.iter().cloned().fold(f64::INFINITY, f64::min) as f32;
+    let depth = distance_mm(sub.g.d, spacing, &lesion.iter().map(|&b| !b).collect::<Vec<bool>>());
+    let away = distance_mm(sub.g.d, spacing, &lesion);
     let band = 2.0 * h + 1e-3;
     let (enamel, dentin, pulp) = (Label::Enamel as u8, Label::Dentin as u8, Label::Pulp as u8);
-    let d = bx.g.d;
-    let zone: Vec<usize> = (0..bx.g.n())
-        .filter(|&l| if lesion[l] { depth[l] <= band } else { away[l] <= band && [enamel, dentin].contains(&labels[bx.global(l)]) })
+    let d = sub.g.d;
+    let zone: Vec<usize> = (0..sub.g.n())
+        .filter(|&l| if lesion[l] { depth[l] <= band } else { away[l] <= band && [enamel, dentin].contains(&labels[global(l)]) })
         .collect();
     let decisions: Vec<(usize, Option<Label>)> = zone
         .par_iter()
         .map(|&l| {
-            let p = bx.g.ijk(l);
+            let p = sub.g.ijk(l);
             let mut counts = [0usize; 4]; // enamel, dentin, pulp, outside
             let mut outside_grey = Vec::new();
             let mut lesion_id = 0u32;
@@ -647,11 +706,11 @@ fn refine_lesion_border(bx: &BoxGrid, lesion: &[bool], id: &[u32], cav: &[Cavity
                         if lesion[t] {
                             lesion_id = lesion_id.max(id[t]);
                         } else if away[t] >= 2.0 * h - 1e-3 {
-                            let lab = labels[bx.global(t)];
+                            let lab = labels[global(t)];
                             let k = if lab == enamel { 0 } else if lab == dentin { 1 } else if lab == pulp { 2 } else { 3 };
                             counts[k] += 1;
                             if k == 3 {
-                                outside_grey.push(vol.values[bx.global(t)]);
+                                outside_grey.push(vals[t]);
                             }
                         }
                     }
@@ -667,9 +726,8 @@ fn refine_lesion_border(bx: &BoxGrid, lesion: &[bool], id: &[u32], cav: &[Cavity
                 2 => Label::Pulp,
                 _ => snap(median(&mut outside_grey) as f64, cal, &[Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical]),
             };
-            let g = f64::from(vol.values[bx.global(l)]);
-            let lesion_grey = cav[lesion_id as usize].grey;
-            let is_lesion = (g - lesion_grey).abs() < (g - cal.peak(neighbour)).abs();
+            let g = f64::from(vals[l]);
+            let is_lesion = (g - cav[lesion_id as usize].grey).abs() < (g - cal.peak(neighbour)).abs();
             let new = if is_lesion {
                 Label::Caries
             } else if !lesion[l] {
@@ -684,7 +742,7 @@ fn refine_lesion_border(bx: &BoxGrid, lesion: &[bool], id: &[u32], cav: &[Cavity
         .collect();
     for (l, new) in decisions {
         if let Some(x) = new {
-            labels[bx.global(l)] = x as u8;
+            labels[global(l)] = x as u8;
         }
     }
 }
