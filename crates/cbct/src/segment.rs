@@ -152,10 +152,14 @@ const LESION_MOUTH_MM: f64 = 1.0;
 /// partial-volume layer where air meets enamel in a fissure is thinner.
 const BODY_VOXELS: f32 = 2.0;
 
-/// Share of a cavity's border lying against the enamel from which it is a lesion's (a pulp horn
-/// near the enamel touches it at a tip: under 1 % of the pulp's border on the phantom; the
-/// lesion, 29–86 % over 0.1–0.25 mm of blur).
-const LESION_BORDER_AT_ENAMEL: f64 = 0.05;
+/// How near (mm) the crown's surface a cavity must come to be a lesion. Caries starts at the
+/// surface of the enamel (occlusal, proximal) or beside a restoration and progresses inward, so a
+/// lesion reaches the surface or lies just under it (a hidden lesion under a thin roof); the pulp
+/// lies under the enamel and a dentin wall. On the molar phantom at 0.10–0.25 mm of blur the
+/// lesion comes within 0.28–0.45 mm, the pulp chamber no nearer than 2.0 mm and the canals, where
+/// they pass the cervical enamel, 1.18 mm. The enamel alone would not do: the pulp horns come
+/// within 0.6 mm of it.
+const LESION_SURFACE_MM: f32 = 0.8;
 
 /// Measures of the components of a cavity mask (index 0 = no component).
 struct CavityStats {
@@ -164,15 +168,14 @@ struct CavityStats {
     depth: f32,
     /// Median grey of the deepest voxels (within a voxel of `depth`).
     grey: f64,
-    /// Border voxels (a 6-neighbour outside the mask), and those within 2 voxels of the enamel.
-    border: usize,
-    border_at_enamel: usize,
+    /// Nearest approach to the crown's surface, mm.
+    to_surface: f32,
     all: Vec<f32>,
 }
 
 impl CavityStats {
-    fn at_enamel(&self) -> bool {
-        self.border > 0 && self.border_at_enamel as f64 >= LESION_BORDER_AT_ENAMEL * self.border as f64
+    fn at_surface(&self) -> bool {
+        self.to_surface <= LESION_SURFACE_MM
     }
     fn has_body(&self, h: f32) -> bool {
         self.depth > BODY_VOXELS * h + 1e-3
@@ -180,11 +183,10 @@ impl CavityStats {
 }
 
 /// Measures of the components `id` (of `mask`) on grid `g`, whose grey values are `vals`.
-fn cavity_stats(g: &Grid, id: &[u32], count: usize, mask: &[bool], at_enamel: &[bool], vals: &[f32], spacing: [f64; 3]) -> Vec<CavityStats> {
+fn cavity_stats(g: &Grid, id: &[u32], count: usize, mask: &[bool], to_surface: &[f32], vals: &[f32], spacing: [f64; 3]) -> Vec<CavityStats> {
     let depth = distance_mm(g.d, spacing, &mask.iter().map(|&b| !b).collect::<Vec<bool>>());
     let h = spacing.iter().cloned().fold(f64::INFINITY, f64::min) as f32;
-    let mut stats: Vec<CavityStats> = (0..count).map(|_| CavityStats { voxels: 0, depth: 0.0, grey: 0.0, border: 0, border_at_enamel: 0, all: Vec::new() }).collect();
-    let mut nb = [0usize; 6];
+    let mut stats: Vec<CavityStats> = (0..count).map(|_| CavityStats { voxels: 0, depth: 0.0, grey: 0.0, to_surface: f32::INFINITY, all: Vec::new() }).collect();
     for l in 0..g.n() {
         let c = id[l] as usize;
         if c == 0 {
@@ -194,11 +196,7 @@ fn cavity_stats(g: &Grid, id: &[u32], count: usize, mask: &[bool], at_enamel: &[
         s.voxels += 1;
         s.depth = s.depth.max(depth[l]);
         s.all.push(vals[l]);
-        let k = g.nb6(l, &mut nb);
-        if k < 6 || nb[..k].iter().any(|&q| !mask[q]) {
-            s.border += 1;
-            s.border_at_enamel += usize::from(at_enamel[l]);
-        }
+        s.to_surface = s.to_surface.min(to_surface[l]);
     }
     let mut core: Vec<Vec<f32>> = vec![Vec::new(); count];
     for l in 0..g.n() {
@@ -260,14 +258,15 @@ struct Cavity {
     grey: f64,
 }
 
-/// Adds to `candidates` the lesions open to the surface. A lesion whose enamel roof is thinner
+/// Adds to `candidates` the lesions open to the surface, and marks in `pockets` every pocket of
+/// the lesion's grey it looked at. A lesion whose enamel roof is thinner
 /// than the scan's blur, or a cavitated one, opens to a fissure through a mouth wider than a
 /// neck, yet lies within the tooth's outline: in a pocket of the tooth (with its cavities)
 /// closed by a ball of LESION_MOUTH_MM, where the grey is the lesion's (`lesion_grey`), with a
-/// body (BODY_VOXELS), against the enamel. Searched only around the enamel, where lesions lie:
-/// a sub-box of the enamel's bounds grown by twice the ball (so the box's faces, which count as
-/// outside, do not narrow the closing there).
-fn open_lesions(bx: &BoxGrid, tooth: &[bool], enamel: &[bool], at_enamel: &[bool], vals: &[f32], spacing: [f64; 3], lesion_grey: &dyn Fn(f64) -> bool, candidates: &mut [bool]) {
+/// body (BODY_VOXELS), at the crown's surface (`near_enamel`); opened by the body's ball.
+/// Searched only around the enamel, where lesions lie: a sub-box of the enamel's bounds grown by
+/// twice the ball (so the box's faces, which count as outside, do not narrow the closing there).
+fn open_lesions(bx: &BoxGrid, tooth: &[bool], enamel: &[bool], near_enamel: &[bool], vals: &[f32], spacing: [f64; 3], lesion_grey: &dyn Fn(f64) -> bool, candidates: &mut [bool], pockets: &mut [bool]) {
     let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
     for (l, _) in enamel.iter().enumerate().filter(|(_, e)| **e) {
         let p = bx.g.ijk(l);
@@ -293,14 +292,93 @@ fn open_lesions(bx: &BoxGrid, tooth: &[bool], enamel: &[bool], at_enamel: &[bool
     let closed = distance_mm(sub.g.d, spacing, &grown);
     let svals = sub.gather(vals);
     let pocket: Vec<bool> = (0..sn).map(|l| closed[l] > r && !solid[l] && lesion_grey(f64::from(svals[l]))).collect();
+    for l in (0..sn).filter(|&l| pocket[l]) {
+        pockets[sub.global(l)] = true;
+    }
     let (id, sizes) = components(&sub.g, &pocket);
-    let stats = cavity_stats(&sub.g, &id, sizes.len(), &pocket, &sub.gather(at_enamel), &svals, spacing);
+    let stats = cavity_stats(&sub.g, &id, sizes.len(), &pocket, &sub.gather(near_enamel).into_iter().map(|b| if b { 0.0 } else { f32::INFINITY }).collect::<Vec<f32>>(), &svals, spacing);
     let h = h as f32;
-    for l in 0..sn {
-        let s = &stats[id[l] as usize];
-        if id[l] != 0 && s.has_body(h) && s.at_enamel() {
-            candidates[sub.global(l)] = true;
+    let lesion: Vec<bool> = (0..sn).map(|l| id[l] != 0 && stats[id[l] as usize].has_body(h) && stats[id[l] as usize].at_surface()).collect();
+    // Opened by the body's ball: what is thinner than the body hangs off it into the fissures
+    // (partial volume of air and enamel with the lesion's grey), not the lesion.
+    let rho = BODY_VOXELS * h + 1e-3;
+    let body: Vec<bool> = distance_mm(sub.g.d, spacing, &lesion.iter().map(|&b| !b).collect::<Vec<bool>>()).into_iter().map(|d| d > rho).collect();
+    let opened = within(&sub.g, &body, f64::from(rho), spacing);
+    for l in (0..sn).filter(|&l| lesion[l] && opened[l]) {
+        candidates[sub.global(l)] = true;
+    }
+}
+
+/// Radius (mm) of the ball the metal is opened by. Beam hardening draws bright streaks out of a
+/// restoration; where one crosses enamel near the metal it can saturate the detector too, in
+/// lines under ~0.8 mm wide (a 0.3 mm Gaussian profile). A restoration is thicker than that.
+const METAL_OPENING_MM: f64 = 0.4;
+
+/// The metal class cleaned of streaks. Metal saturates a CBCT's detector: where the scan is
+/// clipped (at least 27 voxels share its maximum), metal is the metal class at that ceiling, which
+/// leaves out the enamel that a bright streak lifts past the metal threshold but not to the
+/// ceiling; what remains is opened by a ball of METAL_OPENING_MM, which leaves out the streaks'
+/// saturated roots. (An unclipped scan keeps the whole metal class, opened.) A voxel left out
+/// takes the most frequent class among its non-metal neighbours within 2 voxels: enamel under a
+/// streak stays enamel, air above the restoration air, so no streak becomes a tooth speck.
+/// The blur's bloom around the metal stays: under saturation, the metal's grey value, and with
+/// it where its partial volume reaches half, is unknown. Works in the box of the metal voxels.
+fn clean_metal(g: &Grid, vol: &Volume, labels: &mut [u8]) {
+    let metal = Label::Metal as u8;
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    let mut top = f32::NEG_INFINITY;
+    for (m, _) in labels.iter().enumerate().filter(|(_, l)| **l == metal) {
+        let p = g.ijk(m);
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
         }
+        top = top.max(vol.values[m]);
+    }
+    if lo[0] == usize::MAX {
+        return;
+    }
+    let r = METAL_OPENING_MM;
+    let pad = 2 + (r / vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min)).ceil() as usize;
+    for c in 0..3 {
+        lo[c] = lo[c].saturating_sub(pad);
+        hi[c] = (hi[c] + pad).min(g.d[c] - 1);
+    }
+    let bx = BoxGrid::new(lo, hi, g);
+    let bn = bx.g.n();
+    let class = bx.gather(labels);
+    let vals = bx.gather(&vol.values);
+    let ceiling = top - 1e-5 * top.abs().max(1.0);
+    let clipped = vals.iter().zip(&class).filter(|(v, l)| **l == metal && **v >= ceiling).count() >= 27;
+    let mask: Vec<bool> = (0..bn).map(|l| class[l] == metal && (!clipped || vals[l] >= ceiling)).collect();
+    let core: Vec<bool> = distance_mm(bx.g.d, vol.spacing, &mask.iter().map(|&b| !b).collect::<Vec<bool>>()).into_iter().map(|d| f64::from(d) > r).collect();
+    let opened = within(&bx.g, &core, r, vol.spacing);
+    let d = bx.g.d;
+    let relabel: Vec<(usize, u8)> = (0..bn)
+        .into_par_iter()
+        .filter(|&l| class[l] == metal && !(mask[l] && opened[l]))
+        .map(|l| {
+            let p = bx.g.ijk(l);
+            let mut counts = [0usize; 9];
+            for dk in -2i64..=2 {
+                for dj in -2i64..=2 {
+                    for di in -2i64..=2 {
+                        let q = [p[0] as i64 + di, p[1] as i64 + dj, p[2] as i64 + dk];
+                        if (0..3).all(|c| q[c] >= 0 && q[c] < d[c] as i64) {
+                            let t = class[q[0] as usize + d[0] * (q[1] as usize + d[1] * q[2] as usize)];
+                            if t != metal {
+                                counts[t as usize] += 1;
+                            }
+                        }
+                    }
+                }
+            }
+            let best = (0..9).max_by_key(|&k| counts[k]).filter(|&k| counts[k] > 0).unwrap_or(Label::Enamel as usize);
+            (l, best as u8)
+        })
+        .collect();
+    for (l, x) in relabel {
+        labels[bx.global(l)] = x;
     }
 }
 
@@ -375,6 +453,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     }
     let mut out = vol.label_volume();
     out.labels.par_iter_mut().zip(vol.values.par_iter()).for_each(|(l, &v)| *l = cal.classify(v as f64) as u8);
+    clean_metal(&g, vol, &mut out.labels);
     let is_hard = |l: u8| l == Label::Dentin as u8 || l == Label::Enamel as u8;
     let mut core: Vec<bool> = out.labels.par_iter().map(|&l| is_hard(l)).collect();
     // Limit to the selection box.
@@ -501,7 +580,10 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     // Close 1-voxel holes in thin walls (noise, partial volume at root canals) before asking
     // which voxels the outside cannot reach.
     let closed = morph(&bx.g, &morph(&bx.g, &btooth, true), false);
-    let open: Vec<bool> = (0..bn).map(|l| !(btooth[l] || closed[l])).collect();
+    // Metal (a restoration) is neither the tooth nor its outside: it keeps its label, walls
+    // cavities in like the tooth does, and is no outside partner of the surface refinement.
+    let bmetal: Vec<bool> = (0..bn).map(|l| out.labels[bx.global(l)] == Label::Metal as u8).collect();
+    let open: Vec<bool> = (0..bn).map(|l| !(btooth[l] || closed[l] || bmetal[l])).collect();
     let enclosed = {
         let outside = flood(&bx.g, &open, (0..bn).filter(|&l| open[l] && bx.on_face(l)));
         (0..bn).map(|l| open[l] && !outside[l]).collect::<Vec<bool>>()
@@ -518,29 +600,40 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     };
     // Enamel (and metal, for lesions under a restoration): where lesions start.
     let enamel: Vec<bool> = (0..bn).map(|l| (btooth[l] && f64::from(bvals[l]) > enamel_cut) || out.labels[bx.global(l)] == Label::Metal as u8).collect();
-    let at_enamel = within(&bx.g, &enamel, 2.0 * f64::from(h), vol.spacing);
+    // The crown's surface: the outside (what it reaches through passages wider than a neck)
+    // within 5 voxels of enamel at least 2 voxels thick (the blur moves the enamel's edge inward
+    // by up to 1.2 σ, and at the cervical margin, where the enamel thins out, the canals come
+    // near the outside).
+    let near_enamel = {
+        let thick = morph(&bx.g, &morph(&bx.g, &enamel, false), false);
+        within(&bx.g, &thick, 5.0 * f64::from(h), vol.spacing)
+    };
     let lesion_grey = |v: f64| (v - cal.peak(Label::Caries)).abs() < (v - cal.peak(Label::Pulp)).abs();
     let mut candidates = behind_neck;
+    let mut pockets = vec![false; bn];
     if opts.detect_caries {
-        open_lesions(&bx, &btooth, &enamel, &at_enamel, &bvals, vol.spacing, &|v| lesion_grey(v) && v < cal.mid(Label::BoneCortical, Label::Dentin), &mut candidates);
+        open_lesions(&bx, &btooth, &enamel, &near_enamel, &bvals, vol.spacing, &|v| lesion_grey(v) && v < cal.mid(Label::BoneCortical, Label::Dentin), &mut candidates, &mut pockets);
     }
+    // (Pockets of the lesion's grey within the outline are not the outside, whether or not
+    // they were taken as a lesion.)
+    let to_surface = distance_mm(bx.g.d, vol.spacing, &(0..bn).map(|l| open[l] && !candidates[l] && !pockets[l] && near_enamel[l]).collect::<Vec<bool>>());
     let (bid, nc) = {
         let (id, sizes) = components(&bx.g, &candidates);
         (id, sizes.len())
     };
-    let stats = cavity_stats(&bx.g, &bid, nc, &candidates, &at_enamel, &bvals, vol.spacing);
+    let stats = cavity_stats(&bx.g, &bid, nc, &candidates, &to_surface, &bvals, vol.spacing);
     let mut is_enclosed = vec![false; nc];
     for l in (0..bn).filter(|&l| enclosed[l]) {
         is_enclosed[bid[l] as usize] = true;
     }
     let kept: Vec<bool> = (0..nc).map(|c| c != 0 && (is_enclosed[c] || stats[c].has_body(h))).collect();
     let bcavity: Vec<bool> = (0..bn).map(|l| kept[bid[l] as usize]).collect();
-    // Cavity classes. A carious lesion starts at the enamel and progresses inward; the pulp is
-    // enclosed in dentin. So a cavity is caries where it lies against the enamel (along a good
-    // share of its border, LESION_BORDER_AT_ENAMEL) and the grey of its deepest voxels, the ones
-    // least mixed with the hard tissue around by the scan's blur, is nearer the lesion's than the
+    // Cavity classes. A carious lesion starts at the crown's surface and progresses inward; the
+    // pulp lies under the enamel and a dentin wall. So a cavity is caries where it comes within
+    // LESION_SURFACE_MM of the crown's surface and the grey of its deepest voxels, the ones least
+    // mixed with the hard tissue around by the scan's blur, is nearer the lesion's than the
     // pulp's. (Its median grey would not do: the blur pulls a thin pulp's voxels toward the
-    // dentin's.) A cavity at the enamel without a body is partial volume, left to the dentin.
+    // dentin's.) A cavity at the surface without a body is partial volume, left to the dentin.
     let dentin_ref = cal.peak(Label::Dentin);
     let deep = morph(&bx.g, &bcavity, false);
     let mut deep_vals: Vec<Vec<f32>> = vec![Vec::new(); nc];
@@ -552,7 +645,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             let s = &stats[c];
             let class = if !kept[c] || s.voxels < opts.min_component_voxels {
                 Label::Dentin
-            } else if !s.at_enamel() {
+            } else if !s.at_surface() {
                 Label::Pulp
             } else if !s.has_body(h) {
                 Label::Dentin
@@ -578,7 +671,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     // (inside the box: it reaches LESION_MOUTH_MM + 2 voxels beyond the tooth).
     let near_out = morph(&bx.g, &morph(&bx.g, &filled, true), true);
     let inner = morph(&bx.g, &morph(&bx.g, &filled, false), false);
-    let ring: Vec<usize> = (0..bn).filter(|&l| near_out[l] && !inner[l] && !bcavity[l]).collect();
+    let ring: Vec<usize> = (0..bn).filter(|&l| near_out[l] && !inner[l] && !bcavity[l] && !bmetal[l]).collect();
     let outside_classes = [Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical];
     let hard = [Label::Dentin, Label::Enamel];
     let d = bx.g.d;
@@ -597,7 +690,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
                         let t = q[0] as usize + d[0] * (q[1] as usize + d[1] * q[2] as usize);
                         if inner[t] && btooth[t] {
                             ins.push(bvals[t]);
-                        } else if !filled[t] {
+                        } else if !filled[t] && !bmetal[t] {
                             outs.push(bvals[t]);
                         }
                     }
