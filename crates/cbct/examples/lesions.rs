@@ -17,7 +17,9 @@ fn main() {
     println!("caries {caries} metal {metal} tooth {fdi}");
     println!("blur  tissue     true mm3   seg mm3   error    Dice");
     for blur in blurs {
-        let ph = Phantom::new(&PhantomSpec { caries, restoration: metal, blur_sigma_mm: blur, ..Default::default() });
+        let seed: u64 = args.iter().find_map(|a| a.strip_prefix("seed=")).map_or(36, |s| s.parse().unwrap());
+        let noise: f32 = args.iter().find_map(|a| a.strip_prefix("noise=")).map_or(40.0, |s| s.parse().unwrap());
+        let ph = Phantom::new(&PhantomSpec { caries, restoration: metal, blur_sigma_mm: blur, seed, noise_sigma: noise, ..Default::default() });
         let scan = ph.scan();
         let cal = calibrate(&scan).unwrap();
         let opts = SegmentOptions { tooth: Some(ToothSelect { fdi, seed: ph.tooth_seed(fdi).unwrap(), bounds: None }), ..Default::default() };

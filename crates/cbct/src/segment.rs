@@ -671,7 +671,9 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     // (inside the box: it reaches LESION_MOUTH_MM + 2 voxels beyond the tooth).
     let near_out = morph(&bx.g, &morph(&bx.g, &filled, true), true);
     let inner = morph(&bx.g, &morph(&bx.g, &filled, false), false);
-    let ring: Vec<usize> = (0..bn).filter(|&l| near_out[l] && !inner[l] && !bcavity[l] && !bmetal[l]).collect();
+    // Next to metal the grey is the metal's bloom: the topology's answer stands there.
+    let by_metal = morph(&bx.g, &bmetal, true);
+    let ring: Vec<usize> = (0..bn).filter(|&l| near_out[l] && !inner[l] && !bcavity[l] && !by_metal[l]).collect();
     let outside_classes = [Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical];
     let hard = [Label::Dentin, Label::Enamel];
     let d = bx.g.d;
