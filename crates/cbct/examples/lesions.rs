@@ -90,6 +90,24 @@ fn main() {
             })
             .count();
         println!("      tooth-labelled voxels more than a voxel outside {fdi}: {stray}");
+        {
+            let [nx, ny, nz] = seg.dims;
+            let off: Vec<usize> = (0..seg.labels.len())
+                .filter(|&n| seg.labels[n] == Label::Enamel as u8 || seg.labels[n] == Label::Dentin as u8)
+                .filter(|&n| {
+                    let (i, j, k) = ((n % nx) as i64, ((n / nx) % ny) as i64, (n / (nx * ny)) as i64);
+                    !(-1..=1).any(|dk| (-1..=1).any(|dj| (-1..=1).any(|di| {
+                        let (a, b, c) = (i + di, j + dj, k + dk);
+                        (0..nx as i64).contains(&a) && (0..ny as i64).contains(&b) && (0..nz as i64).contains(&c) && tooth_codes_all().contains(&truth.labels[(a + nx as i64 * (b + ny as i64 * c)) as usize])
+                    })))
+                })
+                .collect();
+            let mut by = std::collections::BTreeMap::new();
+            for &n in &off {
+                *by.entry((all.labels[n], seg.labels[n])).or_insert(0usize) += 1;
+            }
+            println!("      enamel/dentin voxels off the tooth (no true tooth voxel among 26 neighbours): {} by (truth, seg) {by:?}", off.len());
+        }
         if args.iter().any(|a| a == "where") {
             let seed = ph.tooth_seed(fdi).unwrap();
             for n in (0..seg.labels.len()).filter(|&n| tooth_codes_all().contains(&seg.labels[n])) {

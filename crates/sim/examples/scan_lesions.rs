@@ -26,7 +26,31 @@ fn main() {
             if t == 0.0 && ours == 0.0 {
                 continue;
             }
-            println!("{blur:.2}  {:<10} {t:8.2} {ours:12.2} {:+7.2}%", label.name(), if t > 0.0 { 100.0 * (ours / t - 1.0) } else { f64::NAN });
+            let msd = model.get(label.name()).map_or(f64::NAN, |x| {
+                let mesh = x.grid.to_mesh();
+                let step = (mesh.points.len() / 4000).max(1);
+                let d: Vec<f64> = mesh.points.iter().step_by(step).map(|p| phantom.tooth_sdf(36, label, p.as_dvec3()).unwrap().abs()).collect();
+                d.iter().sum::<f64>() / d.len().max(1) as f64
+            });
+            println!("{blur:.2}  {:<10} {t:8.2} {ours:12.2} {:+7.2}%   MSD ours->true {msd:.4} mm", label.name(), if t > 0.0 { 100.0 * (ours / t - 1.0) } else { f64::NAN });
+        }
+        if let Some(x) = model.get("caries") {
+            let mesh = x.grid.to_mesh();
+            let mut bins = [0usize; 6];
+            let mut hi_z = Vec::new();
+            let zs: Vec<f64> = mesh.points.iter().map(|p| p.as_dvec3().z).collect();
+            let (zmin, zmax) = zs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |a, &z| (a.0.min(z), a.1.max(z)));
+            for p in &mesh.points {
+                let d = phantom.tooth_sdf(36, Label::Caries, p.as_dvec3()).unwrap();
+                let b = if d < -0.2 { 0 } else if d < -0.1 { 1 } else if d < 0.0 { 2 } else if d < 0.1 { 3 } else if d < 0.2 { 4 } else { 5 };
+                bins[b] += 1;
+                if d > 0.1 {
+                    hi_z.push((p.as_dvec3().z - zmin) / (zmax - zmin));
+                }
+            }
+            let mut h = [0usize; 5];
+            for z in &hi_z { h[((z * 5.0) as usize).min(4)] += 1; }
+            println!("      caries vertices by signed distance (<-0.2, -0.2..-0.1, -0.1..0, 0..0.1, 0.1..0.2, >0.2 mm): {bins:?}; those >0.1 mm out by height (bottom..top fifths): {h:?}");
         }
         println!("      {secs:.1} s: {:?}", report.seconds);
     }
