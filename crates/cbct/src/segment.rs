@@ -1,13 +1,22 @@
 //! Tissue segmentation of one tooth from a calibrated scan.
 //!
-//! 1. Background classes by the calibration's thresholds (air … enamel, metal), one pass.
+//! 1. Background classes by the calibration's thresholds (air … enamel, metal), one pass; the
+//!    metal class cleaned of streaks (`clean_metal`).
 //! 2. Hard tissue core (dentin or enamel class), opened (6-neighbour erode + dilate) to cut thin
 //!    bridges to bone and neighbours; the connected component at the seed is the tooth.
-//! 3. Enclosed cavities of the tooth (flood fill from outside its box) are pulp (or caries), told
-//!    apart from dentin by the pulp's own measured grey value: topology, not grey, finds the pulp.
+//! 3. Cavities of the tooth: enclosed (flood fill from outside its box), or behind a neck at most
+//!    2 voxels wide with a body; and lesions open to the surface, in pockets of the tooth's
+//!    outline (`open_lesions`). Topology, not grey, finds them; position and grey tell them apart:
+//!    a lesion comes near the crown's surface and its deepest voxels have the lesion's grey,
+//!    the pulp lies under the enamel and a dentin wall. The pulp's border against the dentin is
+//!    at the midpoint of its measured grey and the dentin's.
 //! 4. The outer surface is refined voxel by voxel at the midpoint between the inside tissue and
 //!    the local outside tissue (air, soft tissue, bone), so partial volume does not bias volumes.
-//! Cost: a few linear passes over the volume (or over the selected box).
+//! 5. A lesion's border is refined the same way against the enamel, the dentin or the outside
+//!    (`refine_lesion_border`).
+//!
+//! Cost: a few linear passes over the volume for steps 1–2; the rest in the tooth's box (a few
+//! distance transforms there) and in the metal's and the lesions' boxes.
 
 use crate::calibrate::Calibration;
 use crate::error::{Error, Result};
@@ -258,15 +267,16 @@ struct Cavity {
     grey: f64,
 }
 
-/// Adds to `candidates` the lesions open to the surface, and marks in `pockets` every pocket of
-/// the lesion's grey it looked at. A lesion whose enamel roof is thinner
+/// Adds to `solid` (the tooth with its cavities) the lesions open to the surface; returns every
+/// pocket of the lesion's grey it looked at. A lesion whose enamel roof is thinner
 /// than the scan's blur, or a cavitated one, opens to a fissure through a mouth wider than a
 /// neck, yet lies within the tooth's outline: in a pocket of the tooth (with its cavities)
 /// closed by a ball of LESION_MOUTH_MM, where the grey is the lesion's (`lesion_grey`), with a
 /// body (BODY_VOXELS), at the crown's surface (`near_enamel`); opened by the body's ball.
 /// Searched only around the enamel, where lesions lie: a sub-box of the enamel's bounds grown by
 /// twice the ball (so the box's faces, which count as outside, do not narrow the closing there).
-fn open_lesions(bx: &BoxGrid, tooth: &[bool], enamel: &[bool], near_enamel: &[bool], vals: &[f32], spacing: [f64; 3], lesion_grey: &dyn Fn(f64) -> bool, candidates: &mut [bool], pockets: &mut [bool]) {
+fn open_lesions(bx: &BoxGrid, enamel: &[bool], near_enamel: &[bool], vals: &[f32], spacing: [f64; 3], lesion_grey: &dyn Fn(f64) -> bool, solid: &mut [bool]) -> Vec<bool> {
+    let mut pockets = vec![false; bx.g.n()];
     let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
     for (l, _) in enamel.iter().enumerate().filter(|(_, e)| **e) {
         let p = bx.g.ijk(l);
@@ -276,7 +286,7 @@ fn open_lesions(bx: &BoxGrid, tooth: &[bool], enamel: &[bool], near_enamel: &[bo
         }
     }
     if lo[0] == usize::MAX {
-        return;
+        return pockets;
     }
     let h = spacing.iter().cloned().fold(f64::INFINITY, f64::min);
     let pad = 2 + (2.0 * LESION_MOUTH_MM / h).ceil() as usize;
@@ -286,12 +296,12 @@ fn open_lesions(bx: &BoxGrid, tooth: &[bool], enamel: &[bool], near_enamel: &[bo
     }
     let sub = BoxGrid::new(lo, hi, &bx.g);
     let sn = sub.g.n();
-    let solid: Vec<bool> = (0..sn).map(|l| tooth[sub.global(l)] || candidates[sub.global(l)]).collect();
+    let inside: Vec<bool> = (0..sn).map(|l| solid[sub.global(l)]).collect();
     let r = LESION_MOUTH_MM as f32;
-    let grown: Vec<bool> = distance_mm(sub.g.d, spacing, &solid).into_iter().enumerate().map(|(l, d)| d > r || sub.on_face(l)).collect();
+    let grown: Vec<bool> = distance_mm(sub.g.d, spacing, &inside).into_iter().enumerate().map(|(l, d)| d > r || sub.on_face(l)).collect();
     let closed = distance_mm(sub.g.d, spacing, &grown);
     let svals = sub.gather(vals);
-    let pocket: Vec<bool> = (0..sn).map(|l| closed[l] > r && !solid[l] && lesion_grey(f64::from(svals[l]))).collect();
+    let pocket: Vec<bool> = (0..sn).map(|l| closed[l] > r && !inside[l] && lesion_grey(f64::from(svals[l]))).collect();
     for l in (0..sn).filter(|&l| pocket[l]) {
         pockets[sub.global(l)] = true;
     }
@@ -305,8 +315,9 @@ fn open_lesions(bx: &BoxGrid, tooth: &[bool], enamel: &[bool], near_enamel: &[bo
     let body: Vec<bool> = distance_mm(sub.g.d, spacing, &lesion.iter().map(|&b| !b).collect::<Vec<bool>>()).into_iter().map(|d| d > rho).collect();
     let opened = within(&sub.g, &body, f64::from(rho), spacing);
     for l in (0..sn).filter(|&l| lesion[l] && opened[l]) {
-        candidates[sub.global(l)] = true;
+        solid[sub.global(l)] = true;
     }
+    pockets
 }
 
 /// Radius (mm) of the ball the metal is opened by. Beam hardening draws bright streaks out of a
@@ -610,10 +621,17 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     };
     let lesion_grey = |v: f64| (v - cal.peak(Label::Caries)).abs() < (v - cal.peak(Label::Pulp)).abs();
     let mut candidates = behind_neck;
-    let mut pockets = vec![false; bn];
-    if opts.detect_caries {
-        open_lesions(&bx, &btooth, &enamel, &near_enamel, &bvals, vol.spacing, &|v| lesion_grey(v) && v < cal.mid(Label::BoneCortical, Label::Dentin), &mut candidates, &mut pockets);
-    }
+    let pockets = if opts.detect_caries {
+        // (Passed with the tooth in: the outline to close is the tooth's with its cavities.)
+        let mut solid: Vec<bool> = (0..bn).map(|l| btooth[l] || candidates[l]).collect();
+        let pockets = open_lesions(&bx, &enamel, &near_enamel, &bvals, vol.spacing, &|v| lesion_grey(v) && v < cal.mid(Label::BoneCortical, Label::Dentin), &mut solid);
+        for l in (0..bn).filter(|&l| solid[l] && !btooth[l]) {
+            candidates[l] = true;
+        }
+        pockets
+    } else {
+        vec![false; bn]
+    };
     // (Pockets of the lesion's grey within the outline are not the outside, whether or not
     // they were taken as a lesion.)
     let to_surface = distance_mm(bx.g.d, vol.spacing, &(0..bn).map(|l| open[l] && !candidates[l] && !pockets[l] && near_enamel[l]).collect::<Vec<bool>>());
