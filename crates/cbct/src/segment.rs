@@ -268,13 +268,13 @@ struct Cavity {
 }
 
 /// Adds to `solid` (the tooth with its cavities) the lesions open to the surface; returns every
-/// pocket of the lesion's grey it looked at. A lesion whose enamel roof is thinner
-/// than the scan's blur, or a cavitated one, opens to a fissure through a mouth wider than a
-/// neck, yet lies within the tooth's outline: in a pocket of the tooth (with its cavities)
-/// closed by a ball of LESION_MOUTH_MM, where the grey is the lesion's (`lesion_grey`), with a
-/// body (BODY_VOXELS), at the crown's surface (`near_enamel`); opened by the body's ball.
-/// Searched only around the enamel, where lesions lie: a sub-box of the enamel's bounds grown by
-/// twice the ball (so the box's faces, which count as outside, do not narrow the closing there).
+/// pocket of the lesion's grey it looked at. A lesion whose enamel roof is thinner than the scan's
+/// blur, or a cavitated one, opens to a fissure through a mouth wider than a neck, yet lies within
+/// the tooth's outline: in a pocket of `solid` closed by a ball of LESION_MOUTH_MM, where the grey
+/// is the lesion's (`lesion_grey`), with a body (BODY_VOXELS), at the crown's surface
+/// (`near_enamel`); opened by the body's ball. Searched only around the enamel, where lesions lie:
+/// a sub-box of the enamel's bounds grown by twice the ball (so the box's faces, which count as
+/// outside, do not narrow the closing there).
 fn open_lesions(bx: &BoxGrid, enamel: &[bool], near_enamel: &[bool], vals: &[f32], spacing: [f64; 3], lesion_grey: &dyn Fn(f64) -> bool, solid: &mut [bool]) -> Vec<bool> {
     let mut pockets = vec![false; bx.g.n()];
     let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
