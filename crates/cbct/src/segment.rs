@@ -1,16 +1,26 @@
 //! Tissue segmentation of one tooth from a calibrated scan.
 //!
-//! 1. Background classes by the calibration's thresholds (air … enamel, metal), one pass.
+//! 1. Background classes by the calibration's thresholds (air … enamel, metal), one pass; the
+//!    metal class cleaned of streaks (`clean_metal`).
 //! 2. Hard tissue core (dentin or enamel class), opened (6-neighbour erode + dilate) to cut thin
 //!    bridges to bone and neighbours; the connected component at the seed is the tooth.
-//! 3. Enclosed cavities of the tooth (flood fill from outside its box) are pulp (or caries), told
-//!    apart from dentin by the pulp's own measured grey value: topology, not grey, finds the pulp.
+//! 3. Cavities of the tooth: enclosed (flood fill from outside its box), or behind a neck at most
+//!    2 voxels wide with a body; and lesions open to the surface, in pockets of the tooth's
+//!    outline (`open_lesions`). Topology, not grey, finds them; position and grey tell them apart:
+//!    a lesion comes near the crown's surface and its deepest voxels have the lesion's grey,
+//!    the pulp lies under the enamel and a dentin wall. The pulp's border against the dentin is
+//!    at the midpoint of its measured grey and the dentin's.
 //! 4. The outer surface is refined voxel by voxel at the midpoint between the inside tissue and
 //!    the local outside tissue (air, soft tissue, bone), so partial volume does not bias volumes.
-//! Cost: a few linear passes over the volume (or over the selected box).
+//! 5. A lesion's border is refined the same way against the enamel, the dentin or the outside
+//!    (`refine_lesion_border`).
+//!
+//! Cost: a few linear passes over the volume for steps 1–2; the rest in the tooth's box (a few
+//! distance transforms there) and in the metal's and the lesions' boxes.
 
 use crate::calibrate::Calibration;
 use crate::error::{Error, Result};
+use crate::partial_volume::distance_mm;
 use crate::volume::{LabelVolume, Volume};
 use crate::Label;
 use rayon::prelude::*;
@@ -103,6 +113,286 @@ fn morph(g: &Grid, m: &[bool], grow: bool) -> Vec<bool> {
     out
 }
 
+/// One 6-neighbour erosion of `m` inside a box whose outside counts as set: a mask of what lies
+/// outside the tooth stays open at the box's faces.
+fn erode_in_box(g: &Grid, m: &[bool]) -> Vec<bool> {
+    let mut out = vec![false; m.len()];
+    out.par_iter_mut().enumerate().for_each(|(n, o)| {
+        let mut nb = [0usize; 6];
+        let c = g.nb6(n, &mut nb);
+        *o = m[n] && nb[..c].iter().all(|&q| m[q]);
+    });
+    out
+}
+
+/// A box of a grid (inclusive corners) as a grid of its own.
+struct BoxGrid {
+    g: Grid,
+    lo: [usize; 3],
+    /// the parent grid's x and y sizes
+    stride: [usize; 2],
+}
+
+impl BoxGrid {
+    fn new(lo: [usize; 3], hi: [usize; 3], whole: &Grid) -> BoxGrid {
+        BoxGrid { g: Grid { d: [hi[0] - lo[0] + 1, hi[1] - lo[1] + 1, hi[2] - lo[2] + 1] }, lo, stride: [whole.d[0], whole.d[1]] }
+    }
+    /// Index in the parent grid of a box index.
+    fn global(&self, l: usize) -> usize {
+        let p = self.g.ijk(l);
+        (p[0] + self.lo[0]) + self.stride[0] * ((p[1] + self.lo[1]) + self.stride[1] * (p[2] + self.lo[2]))
+    }
+    fn on_face(&self, l: usize) -> bool {
+        let p = self.g.ijk(l);
+        (0..3).any(|c| p[c] == 0 || p[c] + 1 == self.g.d[c])
+    }
+    fn gather<T: Copy>(&self, m: &[T]) -> Vec<T> {
+        (0..self.g.n()).map(|l| m[self.global(l)]).collect()
+    }
+}
+
+/// Widest mouth (mm) through which a lesion open to the surface is still told from the outside:
+/// the radius of the ball that closes the tooth's outline over it. A lesion under a fissure whose
+/// roof is thinner than the scan's blur opens ~1.4 mm wide at a 0.25 mm point spread.
+const LESION_MOUTH_MM: f64 = 1.0;
+
+/// A cavity found behind a neck or in a pocket of the outline, or a lesion, must have a body:
+/// a voxel more than this many voxels from its outside (a ball 5 voxels across). The
+/// partial-volume layer where air meets enamel in a fissure is thinner.
+const BODY_VOXELS: f32 = 2.0;
+
+/// How near (mm) the crown's surface a cavity must come to be a lesion. Caries starts at the
+/// surface of the enamel (occlusal, proximal) or beside a restoration and progresses inward, so a
+/// lesion reaches the surface or lies just under it (a hidden lesion under a thin roof); the pulp
+/// lies under the enamel and a dentin wall. On the molar phantom at 0.10–0.25 mm of blur the
+/// lesion comes within 0.28–0.45 mm, the pulp chamber no nearer than 2.0 mm and the canals, where
+/// they pass the cervical enamel, 1.18 mm. The enamel alone would not do: the pulp horns come
+/// within 0.6 mm of it.
+const LESION_SURFACE_MM: f32 = 0.8;
+
+/// Measures of the components of a cavity mask (index 0 = no component).
+struct CavityStats {
+    voxels: usize,
+    /// Deepest voxel's distance from the component's outside, mm.
+    depth: f32,
+    /// Median grey of the deepest voxels (within a voxel of `depth`).
+    grey: f64,
+    /// Nearest approach to the crown's surface, mm.
+    to_surface: f32,
+    all: Vec<f32>,
+}
+
+impl CavityStats {
+    fn at_surface(&self) -> bool {
+        self.to_surface <= LESION_SURFACE_MM
+    }
+    fn has_body(&self, h: f32) -> bool {
+        self.depth > BODY_VOXELS * h + 1e-3
+    }
+}
+
+/// Measures of the components `id` (of `mask`) on grid `g`, whose grey values are `vals`.
+fn cavity_stats(g: &Grid, id: &[u32], count: usize, mask: &[bool], to_surface: &[f32], vals: &[f32], spacing: [f64; 3]) -> Vec<CavityStats> {
+    let depth = distance_mm(g.d, spacing, &mask.iter().map(|&b| !b).collect::<Vec<bool>>());
+    let h = spacing.iter().cloned().fold(f64::INFINITY, f64::min) as f32;
+    let mut stats: Vec<CavityStats> = (0..count).map(|_| CavityStats { voxels: 0, depth: 0.0, grey: 0.0, to_surface: f32::INFINITY, all: Vec::new() }).collect();
+    for l in 0..g.n() {
+        let c = id[l] as usize;
+        if c == 0 {
+            continue;
+        }
+        let s = &mut stats[c];
+        s.voxels += 1;
+        s.depth = s.depth.max(depth[l]);
+        s.all.push(vals[l]);
+        s.to_surface = s.to_surface.min(to_surface[l]);
+    }
+    let mut core: Vec<Vec<f32>> = vec![Vec::new(); count];
+    for l in 0..g.n() {
+        let c = id[l] as usize;
+        if c != 0 && depth[l] >= stats[c].depth - h {
+            core[c].push(vals[l]);
+        }
+    }
+    for (s, mut v) in stats.iter_mut().zip(core) {
+        if !v.is_empty() {
+            s.grey = median(&mut v) as f64;
+        }
+    }
+    stats
+}
+
+/// Voxels within `r` mm of a seed voxel (Euclidean), by stamping a ball at each seed that has a
+/// 6-neighbour off the seed mask (the inside is covered by the seeds themselves). Cost ∝ seed
+/// surface × ball volume: for a radius of a few voxels, far below a distance transform.
+fn within(g: &Grid, seeds: &[bool], r: f64, spacing: [f64; 3]) -> Vec<bool> {
+    let reach = [0, 1, 2].map(|c| (r / spacing[c]).floor() as i64);
+    let mut ball = Vec::new();
+    for dk in -reach[2]..=reach[2] {
+        for dj in -reach[1]..=reach[1] {
+            for di in -reach[0]..=reach[0] {
+                let d2 = (di as f64 * spacing[0]).powi(2) + (dj as f64 * spacing[1]).powi(2) + (dk as f64 * spacing[2]).powi(2);
+                if d2 <= r * r * (1.0 + 1e-9) {
+                    ball.push([di, dj, dk]);
+                }
+            }
+        }
+    }
+    let mut out = seeds.to_vec();
+    let mut nb = [0usize; 6];
+    for s in 0..g.n() {
+        if !seeds[s] {
+            continue;
+        }
+        let k = g.nb6(s, &mut nb);
+        if k == 6 && nb.iter().all(|&q| seeds[q]) {
+            continue;
+        }
+        let p = g.ijk(s);
+        for o in &ball {
+            let q = [p[0] as i64 + o[0], p[1] as i64 + o[1], p[2] as i64 + o[2]];
+            if (0..3).all(|c| q[c] >= 0 && q[c] < g.d[c] as i64) {
+                out[q[0] as usize + g.d[0] * (q[1] as usize + g.d[1] * q[2] as usize)] = true;
+            }
+        }
+    }
+    out
+}
+
+/// What a cavity of the tooth holds, and for the pulp the grey below which a voxel is pulp.
+struct Cavity {
+    class: Label,
+    threshold: f64,
+    /// median grey of its deepest voxels
+    grey: f64,
+}
+
+/// Adds to `solid` (the tooth with its cavities) the lesions open to the surface; returns every
+/// pocket of the lesion's grey it looked at. A lesion whose enamel roof is thinner than the scan's
+/// blur, or a cavitated one, opens to a fissure through a mouth wider than a neck, yet lies within
+/// the tooth's outline: in a pocket of `solid` closed by a ball of LESION_MOUTH_MM, where the grey
+/// is the lesion's (`lesion_grey`), with a body (BODY_VOXELS), at the crown's surface
+/// (`near_enamel`); opened by the body's ball. Searched only around the enamel, where lesions lie:
+/// a sub-box of the enamel's bounds grown by twice the ball (so the box's faces, which count as
+/// outside, do not narrow the closing there).
+fn open_lesions(bx: &BoxGrid, enamel: &[bool], near_enamel: &[bool], vals: &[f32], spacing: [f64; 3], lesion_grey: &dyn Fn(f64) -> bool, solid: &mut [bool]) -> Vec<bool> {
+    let mut pockets = vec![false; bx.g.n()];
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    for (l, _) in enamel.iter().enumerate().filter(|(_, e)| **e) {
+        let p = bx.g.ijk(l);
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    if lo[0] == usize::MAX {
+        return pockets;
+    }
+    let h = spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+    let pad = 2 + (2.0 * LESION_MOUTH_MM / h).ceil() as usize;
+    for c in 0..3 {
+        lo[c] = lo[c].saturating_sub(pad);
+        hi[c] = (hi[c] + pad).min(bx.g.d[c] - 1);
+    }
+    let sub = BoxGrid::new(lo, hi, &bx.g);
+    let sn = sub.g.n();
+    let inside: Vec<bool> = (0..sn).map(|l| solid[sub.global(l)]).collect();
+    let r = LESION_MOUTH_MM as f32;
+    let grown: Vec<bool> = distance_mm(sub.g.d, spacing, &inside).into_iter().enumerate().map(|(l, d)| d > r || sub.on_face(l)).collect();
+    let closed = distance_mm(sub.g.d, spacing, &grown);
+    let svals = sub.gather(vals);
+    let pocket: Vec<bool> = (0..sn).map(|l| closed[l] > r && !inside[l] && lesion_grey(f64::from(svals[l]))).collect();
+    for l in (0..sn).filter(|&l| pocket[l]) {
+        pockets[sub.global(l)] = true;
+    }
+    let (id, sizes) = components(&sub.g, &pocket);
+    let stats = cavity_stats(&sub.g, &id, sizes.len(), &pocket, &sub.gather(near_enamel).into_iter().map(|b| if b { 0.0 } else { f32::INFINITY }).collect::<Vec<f32>>(), &svals, spacing);
+    let h = h as f32;
+    let lesion: Vec<bool> = (0..sn).map(|l| id[l] != 0 && stats[id[l] as usize].has_body(h) && stats[id[l] as usize].at_surface()).collect();
+    // Opened by the body's ball: what is thinner than the body hangs off it into the fissures
+    // (partial volume of air and enamel with the lesion's grey), not the lesion.
+    let rho = BODY_VOXELS * h + 1e-3;
+    let body: Vec<bool> = distance_mm(sub.g.d, spacing, &lesion.iter().map(|&b| !b).collect::<Vec<bool>>()).into_iter().map(|d| d > rho).collect();
+    let opened = within(&sub.g, &body, f64::from(rho), spacing);
+    for l in (0..sn).filter(|&l| lesion[l] && opened[l]) {
+        solid[sub.global(l)] = true;
+    }
+    pockets
+}
+
+/// Radius (mm) of the ball the metal is opened by. Beam hardening draws bright streaks out of a
+/// restoration; where one crosses enamel near the metal it can saturate the detector too, in
+/// lines under ~0.8 mm wide (a 0.3 mm Gaussian profile). A restoration is thicker than that.
+const METAL_OPENING_MM: f64 = 0.4;
+
+/// The metal class cleaned of streaks. Metal saturates a CBCT's detector: where the scan is
+/// clipped (at least 27 voxels share its maximum), metal is the metal class at that ceiling, which
+/// leaves out the enamel that a bright streak lifts past the metal threshold but not to the
+/// ceiling; what remains is opened by a ball of METAL_OPENING_MM, which leaves out the streaks'
+/// saturated roots. (An unclipped scan keeps the whole metal class, opened.) A voxel left out
+/// takes the most frequent class among its non-metal neighbours within 2 voxels: enamel under a
+/// streak stays enamel, air above the restoration air, so no streak becomes a tooth speck.
+/// The blur's bloom around the metal stays: under saturation, the metal's grey value, and with
+/// it where its partial volume reaches half, is unknown. Works in the box of the metal voxels.
+fn clean_metal(g: &Grid, vol: &Volume, labels: &mut [u8]) {
+    let metal = Label::Metal as u8;
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    let mut top = f32::NEG_INFINITY;
+    for (m, _) in labels.iter().enumerate().filter(|(_, l)| **l == metal) {
+        let p = g.ijk(m);
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+        top = top.max(vol.values[m]);
+    }
+    if lo[0] == usize::MAX {
+        return;
+    }
+    let r = METAL_OPENING_MM;
+    let pad = 2 + (r / vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min)).ceil() as usize;
+    for c in 0..3 {
+        lo[c] = lo[c].saturating_sub(pad);
+        hi[c] = (hi[c] + pad).min(g.d[c] - 1);
+    }
+    let bx = BoxGrid::new(lo, hi, g);
+    let bn = bx.g.n();
+    let class = bx.gather(labels);
+    let vals = bx.gather(&vol.values);
+    let ceiling = top - 1e-5 * top.abs().max(1.0);
+    let clipped = vals.iter().zip(&class).filter(|(v, l)| **l == metal && **v >= ceiling).count() >= 27;
+    let mask: Vec<bool> = (0..bn).map(|l| class[l] == metal && (!clipped || vals[l] >= ceiling)).collect();
+    let core: Vec<bool> = distance_mm(bx.g.d, vol.spacing, &mask.iter().map(|&b| !b).collect::<Vec<bool>>()).into_iter().map(|d| f64::from(d) > r).collect();
+    let opened = within(&bx.g, &core, r, vol.spacing);
+    let d = bx.g.d;
+    let relabel: Vec<(usize, u8)> = (0..bn)
+        .into_par_iter()
+        .filter(|&l| class[l] == metal && !(mask[l] && opened[l]))
+        .map(|l| {
+            let p = bx.g.ijk(l);
+            let mut counts = [0usize; 9];
+            for dk in -2i64..=2 {
+                for dj in -2i64..=2 {
+                    for di in -2i64..=2 {
+                        let q = [p[0] as i64 + di, p[1] as i64 + dj, p[2] as i64 + dk];
+                        if (0..3).all(|c| q[c] >= 0 && q[c] < d[c] as i64) {
+                            let t = class[q[0] as usize + d[0] * (q[1] as usize + d[1] * q[2] as usize)];
+                            if t != metal {
+                                counts[t as usize] += 1;
+                            }
+                        }
+                    }
+                }
+            }
+            let best = (0..9).max_by_key(|&k| counts[k]).filter(|&k| counts[k] > 0).unwrap_or(Label::Enamel as usize);
+            (l, best as u8)
+        })
+        .collect();
+    for (l, x) in relabel {
+        labels[bx.global(l)] = x;
+    }
+}
+
 /// Flood fill (6-connected) over `allowed` from `starts`.
 fn flood(g: &Grid, allowed: &[bool], starts: impl IntoIterator<Item = usize>) -> Vec<bool> {
     let mut seen = vec![false; allowed.len()];
@@ -174,6 +464,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     }
     let mut out = vol.label_volume();
     out.labels.par_iter_mut().zip(vol.values.par_iter()).for_each(|(l, &v)| *l = cal.classify(v as f64) as u8);
+    clean_metal(&g, vol, &mut out.labels);
     let is_hard = |l: u8| l == Label::Dentin as u8 || l == Label::Enamel as u8;
     let mut core: Vec<bool> = out.labels.par_iter().map(|&l| is_hard(l)).collect();
     // Limit to the selection box.
@@ -273,7 +564,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
         None => id.iter().map(|&c| c != 0 && sizes[c as usize] >= opts.min_component_voxels.max(1)).collect(),
     };
     let tooth = keep;
-    // Cavities: not reachable from outside the tooth's box.
+    // Cavities, in a box around the tooth with room for the lesion search's closing.
     let (mut blo, mut bhi) = ([usize::MAX; 3], [0usize; 3]);
     for (m, _) in tooth.iter().enumerate().filter(|(_, t)| **t) {
         let p = g.ijk(m);
@@ -285,49 +576,142 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     if blo[0] == usize::MAX {
         return Ok(out);
     }
+    let h = vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+    let pad = 2 + (LESION_MOUTH_MM / h).ceil() as usize;
     for c in 0..3 {
-        blo[c] = blo[c].saturating_sub(2);
-        bhi[c] = (bhi[c] + 2).min(vol.dims[c] - 1);
+        blo[c] = blo[c].saturating_sub(pad);
+        bhi[c] = (bhi[c] + pad).min(vol.dims[c] - 1);
     }
-    let in_box = |m: usize| {
-        let p = g.ijk(m);
-        (0..3).all(|c| p[c] >= blo[c] && p[c] <= bhi[c])
-    };
-    let on_box_face = |m: usize| {
-        let p = g.ijk(m);
-        (0..3).any(|c| p[c] == blo[c] || p[c] == bhi[c])
-    };
+    let bx = BoxGrid::new(blo, bhi, &g);
+    let bn = bx.g.n();
+    let btooth = bx.gather(&tooth);
+    let bvals = bx.gather(&vol.values);
+    let h = h as f32;
+    let enamel_cut = cal.mid(Label::Dentin, Label::Enamel);
     // Close 1-voxel holes in thin walls (noise, partial volume at root canals) before asking
     // which voxels the outside cannot reach.
-    let closed = morph(&g, &morph(&g, &tooth, true), false);
-    let open: Vec<bool> = (0..n).map(|m| !(tooth[m] || closed[m]) && in_box(m)).collect();
-    let outside = flood(&g, &open, (0..n).filter(|&m| open[m] && on_box_face(m)));
-    let cavity: Vec<bool> = (0..n).map(|m| open[m] && !outside[m]).collect();
-    let filled: Vec<bool> = (0..n).map(|m| tooth[m] || cavity[m]).collect();
+    let closed = morph(&bx.g, &morph(&bx.g, &btooth, true), false);
+    // Metal (a restoration) is neither the tooth nor its outside: it keeps its label, walls
+    // cavities in like the tooth does, and is no outside partner of the surface refinement.
+    let bmetal: Vec<bool> = (0..bn).map(|l| out.labels[bx.global(l)] == Label::Metal as u8).collect();
+    let open: Vec<bool> = (0..bn).map(|l| !(btooth[l] || closed[l] || bmetal[l])).collect();
+    let enclosed = {
+        let outside = flood(&bx.g, &open, (0..bn).filter(|&l| open[l] && bx.on_face(l)));
+        (0..bn).map(|l| open[l] && !outside[l]).collect::<Vec<bool>>()
+    };
+    // The outside also ends at passages at most 2 voxels wide: a canal behind an apical wall
+    // thinner than the blur, or a lesion under a fissure's thin enamel roof, opens to the outside
+    // in the scan only through such a neck. Behind a neck, only a body (BODY_VOXELS) is a cavity;
+    // thinner pockets (the bottoms of fissures) are outside.
+    let behind_neck = {
+        let core = erode_in_box(&bx.g, &open);
+        let reach = flood(&bx.g, &core, (0..bn).filter(|&l| core[l] && bx.on_face(l)));
+        let wide = morph(&bx.g, &reach, true);
+        (0..bn).map(|l| open[l] && !wide[l]).collect::<Vec<bool>>()
+    };
+    // Enamel (and metal, for lesions under a restoration): where lesions start.
+    let enamel: Vec<bool> = (0..bn).map(|l| (btooth[l] && f64::from(bvals[l]) > enamel_cut) || out.labels[bx.global(l)] == Label::Metal as u8).collect();
+    // The crown's surface: the outside (what it reaches through passages wider than a neck)
+    // within 5 voxels of enamel at least 2 voxels thick (the blur moves the enamel's edge inward
+    // by up to 1.2 σ, and at the cervical margin, where the enamel thins out, the canals come
+    // near the outside).
+    let near_enamel = {
+        let thick = morph(&bx.g, &morph(&bx.g, &enamel, false), false);
+        within(&bx.g, &thick, 5.0 * f64::from(h), vol.spacing)
+    };
+    let lesion_grey = |v: f64| (v - cal.peak(Label::Caries)).abs() < (v - cal.peak(Label::Pulp)).abs();
+    let mut candidates = behind_neck;
+    let pockets = if opts.detect_caries {
+        // (Passed with the tooth in: the outline to close is the tooth's with its cavities.)
+        let mut solid: Vec<bool> = (0..bn).map(|l| btooth[l] || candidates[l]).collect();
+        let pockets = open_lesions(&bx, &enamel, &near_enamel, &bvals, vol.spacing, &|v| lesion_grey(v) && v < cal.mid(Label::BoneCortical, Label::Dentin), &mut solid);
+        for l in (0..bn).filter(|&l| solid[l] && !btooth[l]) {
+            candidates[l] = true;
+        }
+        pockets
+    } else {
+        vec![false; bn]
+    };
+    // (Pockets of the lesion's grey within the outline are not the outside, whether or not
+    // they were taken as a lesion.)
+    let to_surface = distance_mm(bx.g.d, vol.spacing, &(0..bn).map(|l| open[l] && !candidates[l] && !pockets[l] && near_enamel[l]).collect::<Vec<bool>>());
+    let (bid, nc) = {
+        let (id, sizes) = components(&bx.g, &candidates);
+        (id, sizes.len())
+    };
+    let stats = cavity_stats(&bx.g, &bid, nc, &candidates, &to_surface, &bvals, vol.spacing);
+    let mut is_enclosed = vec![false; nc];
+    for l in (0..bn).filter(|&l| enclosed[l]) {
+        is_enclosed[bid[l] as usize] = true;
+    }
+    let kept: Vec<bool> = (0..nc).map(|c| c != 0 && (is_enclosed[c] || stats[c].has_body(h))).collect();
+    let bcavity: Vec<bool> = (0..bn).map(|l| kept[bid[l] as usize]).collect();
+    // Cavity classes. A carious lesion starts at the crown's surface and progresses inward; the
+    // pulp lies under the enamel and a dentin wall. So a cavity is caries where it comes within
+    // LESION_SURFACE_MM of the crown's surface and the grey of its deepest voxels, the ones least
+    // mixed with the hard tissue around by the scan's blur, is nearer the lesion's than the
+    // pulp's. (Its median grey would not do: the blur pulls a thin pulp's voxels toward the
+    // dentin's.) A cavity at the surface without a body is partial volume, left to the dentin.
+    let dentin_ref = cal.peak(Label::Dentin);
+    let deep = morph(&bx.g, &bcavity, false);
+    let mut deep_vals: Vec<Vec<f32>> = vec![Vec::new(); nc];
+    for l in (0..bn).filter(|&l| deep[l]) {
+        deep_vals[bid[l] as usize].push(bvals[l]);
+    }
+    let cav_class: Vec<Cavity> = (0..nc)
+        .map(|c| {
+            let s = &stats[c];
+            let class = if !kept[c] || s.voxels < opts.min_component_voxels {
+                Label::Dentin
+            } else if !s.at_surface() {
+                Label::Pulp
+            } else if !s.has_body(h) {
+                Label::Dentin
+            } else if opts.detect_caries && lesion_grey(s.grey) {
+                Label::Caries
+            } else {
+                Label::Pulp
+            };
+            // Pulp against dentin at the midpoint of the pulp's grey (its voxels a voxel deep)
+            // and dentin's.
+            let threshold = if class == Label::Pulp {
+                let mut vals = if deep_vals[c].len() >= 8 { std::mem::take(&mut deep_vals[c]) } else { s.all.clone() };
+                0.5 * ((median(&mut vals) as f64).min(dentin_ref) + dentin_ref)
+            } else {
+                0.0
+            };
+            Cavity { class, threshold, grey: s.grey }
+        })
+        .collect();
+    let filled: Vec<bool> = (0..bn).map(|l| btooth[l] || bcavity[l]).collect();
 
-    // Outer surface refinement in a 2-voxel ring on both sides of the filled tooth's surface.
-    let near_out = morph(&g, &morph(&g, &filled, true), true);
-    let inner = morph(&g, &morph(&g, &filled, false), false);
-    let ring: Vec<usize> = (0..n).filter(|&m| near_out[m] && !inner[m] && !cavity[m]).collect();
+    // Outer surface refinement in a 2-voxel ring on both sides of the filled tooth's surface
+    // (inside the box: it reaches LESION_MOUTH_MM + 2 voxels beyond the tooth).
+    let near_out = morph(&bx.g, &morph(&bx.g, &filled, true), true);
+    let inner = morph(&bx.g, &morph(&bx.g, &filled, false), false);
+    // Next to metal the grey is the metal's bloom: the topology's answer stands there.
+    let by_metal = morph(&bx.g, &bmetal, true);
+    let ring: Vec<usize> = (0..bn).filter(|&l| near_out[l] && !inner[l] && !bcavity[l] && !by_metal[l]).collect();
     let outside_classes = [Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical];
     let hard = [Label::Dentin, Label::Enamel];
+    let d = bx.g.d;
     let decisions: Vec<(usize, Option<Label>)> = ring
         .par_iter()
-        .map(|&m| {
-            let p = g.ijk(m);
+        .map(|&l| {
+            let p = bx.g.ijk(l);
             let (mut ins, mut outs) = (Vec::with_capacity(125), Vec::with_capacity(125));
             for dk in -2i64..=2 {
                 for dj in -2i64..=2 {
                     for di in -2i64..=2 {
                         let q = [p[0] as i64 + di, p[1] as i64 + dj, p[2] as i64 + dk];
-                        if (0..3).any(|c| q[c] < 0 || q[c] >= g.d[c] as i64) {
+                        if (0..3).any(|c| q[c] < 0 || q[c] >= d[c] as i64) {
                             continue;
                         }
-                        let t = q[0] as usize + g.d[0] * (q[1] as usize + g.d[1] * q[2] as usize);
-                        if inner[t] && tooth[t] {
-                            ins.push(vol.values[t]);
-                        } else if !filled[t] {
-                            outs.push(vol.values[t]);
+                        let t = q[0] as usize + d[0] * (q[1] as usize + d[1] * q[2] as usize);
+                        if inner[t] && btooth[t] {
+                            ins.push(bvals[t]);
+                        } else if !filled[t] && !bmetal[t] {
+                            outs.push(bvals[t]);
                         }
                     }
                 }
@@ -337,69 +721,143 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             // Roots sit in bone behind a periodontal ligament (soft tissue, ~0.2 mm): the
             // surface there is the dentin/ligament edge, so the ligament is the outside partner.
             let mu_out = if matches!(mu_out, Label::BoneCancellous | Label::BoneCortical) { Label::SoftTissue } else { mu_out };
-            let inside = vol.values[m] as f64 > cal.mid(mu_in, mu_out);
-            (m, inside.then_some(mu_in))
+            let inside = bvals[l] as f64 > cal.mid(mu_in, mu_out);
+            (l, inside.then_some(mu_in))
         })
         .collect();
-    let mut refined = filled.clone();
-    let mut surface_label = vec![0u8; 0];
-    surface_label.resize(n, 0);
-    for (m, d) in decisions {
-        refined[m] = d.is_some();
-        if let Some(l) = d {
-            surface_label[m] = l as u8;
+    let mut refined = filled;
+    let mut surface_label = vec![0u8; bn];
+    for (l, d) in decisions {
+        refined[l] = d.is_some();
+        if let Some(x) = d {
+            surface_label[l] = x as u8;
         }
     }
-    // Cavity components: pulp or caries by their own median grey value.
-    let (cid, csizes) = components(&g, &cavity);
-    let mut cav_vals: Vec<Vec<f32>> = vec![Vec::new(); csizes.len()];
-    let deep = morph(&g, &cavity, false);
-    for m in 0..n {
-        if cid[m] != 0 {
-            cav_vals[cid[m] as usize].push(vol.values[m]);
+    // Hard tissue is this tooth's only where refined; elsewhere (bone, other teeth) it is
+    // reported as bone_cortical.
+    out.labels.par_iter_mut().for_each(|l| {
+        if is_hard(*l) {
+            *l = Label::BoneCortical as u8;
         }
-    }
-    let mut deep_vals: Vec<Vec<f32>> = vec![Vec::new(); csizes.len()];
-    for m in 0..n {
-        if deep[m] && cid[m] != 0 {
-            deep_vals[cid[m] as usize].push(vol.values[m]);
-        }
-    }
-    let (pulp_ref, caries_ref, dentin_ref) = (cal.peak(Label::Pulp), cal.peak(Label::Caries), cal.peak(Label::Dentin));
-    let cav_class: Vec<(Label, f64)> = (0..csizes.len())
-        .map(|c| {
-            if c == 0 || csizes[c] < opts.min_component_voxels {
-                return (Label::Dentin, 0.0);
+    });
+    for l in (0..bn).filter(|&l| refined[l]) {
+        let v = f64::from(bvals[l]);
+        out.labels[bx.global(l)] = if bcavity[l] {
+            let cav = &cav_class[bid[l] as usize];
+            match cav.class {
+                Label::Pulp if v < cav.threshold => Label::Pulp,
+                Label::Caries => Label::Caries,
+                _ => Label::Dentin,
             }
-            let vals = if deep_vals[c].len() >= 8 { &mut deep_vals[c] } else { &mut cav_vals[c] };
-            let med = median(vals) as f64;
-            let is_caries = opts.detect_caries && (med - caries_ref).abs() < (med - pulp_ref).abs();
-            let class = if is_caries { Label::Caries } else { Label::Pulp };
-            // Threshold against dentin at the midpoint of this cavity's measured grey and dentin's.
-            (class, 0.5 * (med.min(dentin_ref) + dentin_ref))
-        })
-        .collect();
-    let enamel_cut = cal.mid(Label::Dentin, Label::Enamel);
-    for m in 0..n {
-        let l = &mut out.labels[m];
-        if refined[m] {
-            *l = if cid[m] != 0 {
-                let (class, thr) = cav_class[cid[m] as usize];
-                if class != Label::Dentin && (vol.values[m] as f64) < thr { class } else { Label::Dentin }
-            } else if surface_label[m] != 0 {
-                if surface_label[m] == Label::Enamel as u8 || (vol.values[m] as f64) <= enamel_cut { Label::from_u8(surface_label[m]).unwrap_or(Label::Dentin) } else { Label::Enamel }
-            } else if (vol.values[m] as f64) > enamel_cut {
-                Label::Enamel
-            } else {
-                Label::Dentin
-            } as u8;
-        } else if is_hard(*l) && opts.tooth.is_some() {
-            *l = Label::BoneCortical as u8;
-        } else if is_hard(*l) {
-            *l = Label::BoneCortical as u8;
-        }
+        } else if surface_label[l] != 0 {
+            if surface_label[l] == Label::Enamel as u8 || v <= enamel_cut { Label::from_u8(surface_label[l]).unwrap_or(Label::Dentin) } else { Label::Enamel }
+        } else if v > enamel_cut {
+            Label::Enamel
+        } else {
+            Label::Dentin
+        } as u8;
+    }
+    let lesion: Vec<bool> = (0..bn).map(|l| bcavity[l] && cav_class[bid[l] as usize].class == Label::Caries).collect();
+    if lesion.contains(&true) {
+        refine_lesion_border(&bx, &lesion, &bid, &cav_class, &bvals, vol.spacing, cal, &mut out.labels);
     }
     Ok(out)
+}
+
+/// Moves a lesion's border to where the grey is midway between the lesion's (its deepest
+/// voxels') and the neighbouring tissue's, voxel by voxel, as partial volume puts it: the enamel's
+/// against the enamel, the dentin's against the dentin, the outside's at an open mouth. (The
+/// cavity that found the lesion ends at the hard tissues' threshold, which lies inside the lesion
+/// against the enamel and outside it against the dentin.) Looks two voxels to each side of the
+/// border; a voxel's neighbouring tissue is the most frequent label among the voxels within 3
+/// voxels of it and 2 or more voxels from the lesion. The lesion grows only into the tooth
+/// (enamel, dentin), never into the outside. Works in the lesions' box grown by 6 voxels.
+#[allow(clippy::too_many_arguments)]
+fn refine_lesion_border(bx: &BoxGrid, lesion: &[bool], id: &[u32], cav: &[Cavity], vals: &[f32], spacing: [f64; 3], cal: &Calibration, labels: &mut [u8]) {
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    for (l, _) in lesion.iter().enumerate().filter(|(_, x)| **x) {
+        let p = bx.g.ijk(l);
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    if lo[0] == usize::MAX {
+        return;
+    }
+    for c in 0..3 {
+        lo[c] = lo[c].saturating_sub(6);
+        hi[c] = (hi[c] + 6).min(bx.g.d[c] - 1);
+    }
+    let sub = BoxGrid::new(lo, hi, &bx.g);
+    let (lesion, id, vals) = (sub.gather(lesion), sub.gather(id), sub.gather(vals));
+    let global = |l: usize| bx.global(sub.global(l));
+    let h = spacing.iter().cloned().fold(f64::INFINITY, f64::min) as f32;
+    let depth = distance_mm(sub.g.d, spacing, &lesion.iter().map(|&b| !b).collect::<Vec<bool>>());
+    let away = distance_mm(sub.g.d, spacing, &lesion);
+    let band = 2.0 * h + 1e-3;
+    let (enamel, dentin, pulp) = (Label::Enamel as u8, Label::Dentin as u8, Label::Pulp as u8);
+    let d = sub.g.d;
+    let zone: Vec<usize> = (0..sub.g.n())
+        .filter(|&l| if lesion[l] { depth[l] <= band } else { away[l] <= band && [enamel, dentin].contains(&labels[global(l)]) })
+        .collect();
+    let decisions: Vec<(usize, Option<Label>)> = zone
+        .par_iter()
+        .map(|&l| {
+            let p = sub.g.ijk(l);
+            let mut counts = [0usize; 4]; // enamel, dentin, pulp, outside
+            let mut outside_grey = Vec::new();
+            let mut lesion_id = 0u32;
+            for dk in -3i64..=3 {
+                for dj in -3i64..=3 {
+                    for di in -3i64..=3 {
+                        let q = [p[0] as i64 + di, p[1] as i64 + dj, p[2] as i64 + dk];
+                        if (0..3).any(|c| q[c] < 0 || q[c] >= d[c] as i64) {
+                            continue;
+                        }
+                        let t = q[0] as usize + d[0] * (q[1] as usize + d[1] * q[2] as usize);
+                        if lesion[t] {
+                            lesion_id = lesion_id.max(id[t]);
+                        } else if away[t] >= 2.0 * h - 1e-3 {
+                            let lab = labels[global(t)];
+                            let k = if lab == enamel { 0 } else if lab == dentin { 1 } else if lab == pulp { 2 } else { 3 };
+                            counts[k] += 1;
+                            if k == 3 {
+                                outside_grey.push(vals[t]);
+                            }
+                        }
+                    }
+                }
+            }
+            let k = (0..4).max_by_key(|&k| counts[k]).unwrap_or(1);
+            if counts[k] == 0 || lesion_id == 0 {
+                return (l, None);
+            }
+            let neighbour = match k {
+                0 => Label::Enamel,
+                1 => Label::Dentin,
+                2 => Label::Pulp,
+                _ => snap(median(&mut outside_grey) as f64, cal, &[Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical]),
+            };
+            let g = f64::from(vals[l]);
+            let is_lesion = (g - cav[lesion_id as usize].grey).abs() < (g - cal.peak(neighbour)).abs();
+            let new = if is_lesion {
+                Label::Caries
+            } else if !lesion[l] {
+                return (l, None);
+            } else if k < 3 {
+                neighbour
+            } else {
+                cal.classify(g)
+            };
+            (l, Some(new))
+        })
+        .collect();
+    for (l, new) in decisions {
+        if let Some(x) = new {
+            labels[global(l)] = x as u8;
+        }
+    }
 }
 
 /// Dice overlap of one label between two label volumes (1 = identical; 1 when both lack it).
