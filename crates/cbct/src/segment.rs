@@ -267,6 +267,27 @@ struct Cavity {
     grey: f64,
 }
 
+/// The voxel bounds (inclusive) of `mask` in `bx`, grown by `pad` voxels and kept inside the
+/// box; `None` for an empty mask.
+fn padded_bounds(bx: &BoxGrid, mask: &[bool], pad: usize) -> Option<([usize; 3], [usize; 3])> {
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    for (l, _) in mask.iter().enumerate().filter(|(_, m)| **m) {
+        let p = bx.g.ijk(l);
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    if lo[0] == usize::MAX {
+        return None;
+    }
+    for c in 0..3 {
+        lo[c] = lo[c].saturating_sub(pad);
+        hi[c] = (hi[c] + pad).min(bx.g.d[c] - 1);
+    }
+    Some((lo, hi))
+}
+
 /// Adds to `solid` (the tooth with its cavities) the lesions open to the surface; returns every
 /// pocket of the lesion's grey it looked at. A lesion whose enamel roof is thinner than the scan's
 /// blur, or a cavitated one, opens to a fissure through a mouth wider than a neck, yet lies within
@@ -277,23 +298,9 @@ struct Cavity {
 /// outside, do not narrow the closing there).
 fn open_lesions(bx: &BoxGrid, enamel: &[bool], near_enamel: &[bool], vals: &[f32], spacing: [f64; 3], lesion_grey: &dyn Fn(f64) -> bool, solid: &mut [bool]) -> Vec<bool> {
     let mut pockets = vec![false; bx.g.n()];
-    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
-    for (l, _) in enamel.iter().enumerate().filter(|(_, e)| **e) {
-        let p = bx.g.ijk(l);
-        for c in 0..3 {
-            lo[c] = lo[c].min(p[c]);
-            hi[c] = hi[c].max(p[c]);
-        }
-    }
-    if lo[0] == usize::MAX {
-        return pockets;
-    }
     let h = spacing.iter().cloned().fold(f64::INFINITY, f64::min);
     let pad = 2 + (2.0 * LESION_MOUTH_MM / h).ceil() as usize;
-    for c in 0..3 {
-        lo[c] = lo[c].saturating_sub(pad);
-        hi[c] = (hi[c] + pad).min(bx.g.d[c] - 1);
-    }
+    let Some((lo, hi)) = padded_bounds(bx, enamel, pad) else { return pockets };
     let sub = BoxGrid::new(lo, hi, &bx.g);
     let sn = sub.g.n();
     let inside: Vec<bool> = (0..sn).map(|l| solid[sub.global(l)]).collect();
@@ -774,21 +781,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
 /// (enamel, dentin), never into the outside. Works in the lesions' box grown by 6 voxels.
 #[allow(clippy::too_many_arguments)]
 fn refine_lesion_border(bx: &BoxGrid, lesion: &[bool], id: &[u32], cav: &[Cavity], vals: &[f32], spacing: [f64; 3], cal: &Calibration, labels: &mut [u8]) {
-    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
-    for (l, _) in lesion.iter().enumerate().filter(|(_, x)| **x) {
-        let p = bx.g.ijk(l);
-        for c in 0..3 {
-            lo[c] = lo[c].min(p[c]);
-            hi[c] = hi[c].max(p[c]);
-        }
-    }
-    if lo[0] == usize::MAX {
-        return;
-    }
-    for c in 0..3 {
-        lo[c] = lo[c].saturating_sub(6);
-        hi[c] = (hi[c] + 6).min(bx.g.d[c] - 1);
-    }
+    let Some((lo, hi)) = padded_bounds(bx, lesion, 6) else { return };
     let sub = BoxGrid::new(lo, hi, &bx.g);
     let (lesion, id, vals) = (sub.gather(lesion), sub.gather(id), sub.gather(vals));
     let global = |l: usize| bx.global(sub.global(l));
