@@ -267,6 +267,15 @@ struct Cavity {
     grey: f64,
 }
 
+/// Linear indices (x fastest) of the voxels within `r` of `p` along every axis, in a grid of
+/// dimensions `d`.
+fn cube_around(p: [usize; 3], r: i64, d: [usize; 3]) -> impl Iterator<Item = usize> {
+    (-r..=r)
+        .flat_map(move |dk| (-r..=r).flat_map(move |dj| (-r..=r).map(move |di| [p[0] as i64 + di, p[1] as i64 + dj, p[2] as i64 + dk])))
+        .filter(move |q| (0..3).all(|c| q[c] >= 0 && q[c] < d[c] as i64))
+        .map(move |q| q[0] as usize + d[0] * (q[1] as usize + d[1] * q[2] as usize))
+}
+
 /// The voxel bounds (inclusive) of `mask` in `bx`, grown by `pad` voxels and kept inside the
 /// box; `None` for an empty mask.
 fn padded_bounds(bx: &BoxGrid, mask: &[bool], pad: usize) -> Option<([usize; 3], [usize; 3])> {
@@ -707,20 +716,11 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
         .map(|&l| {
             let p = bx.g.ijk(l);
             let (mut ins, mut outs) = (Vec::with_capacity(125), Vec::with_capacity(125));
-            for dk in -2i64..=2 {
-                for dj in -2i64..=2 {
-                    for di in -2i64..=2 {
-                        let q = [p[0] as i64 + di, p[1] as i64 + dj, p[2] as i64 + dk];
-                        if (0..3).any(|c| q[c] < 0 || q[c] >= d[c] as i64) {
-                            continue;
-                        }
-                        let t = q[0] as usize + d[0] * (q[1] as usize + d[1] * q[2] as usize);
-                        if inner[t] && btooth[t] {
-                            ins.push(bvals[t]);
-                        } else if !filled[t] && !bmetal[t] {
-                            outs.push(bvals[t]);
-                        }
-                    }
+            for t in cube_around(p, 2, d) {
+                if inner[t] && btooth[t] {
+                    ins.push(bvals[t]);
+                } else if !filled[t] && !bmetal[t] {
+                    outs.push(bvals[t]);
                 }
             }
             let mu_in = if ins.is_empty() { Label::Dentin } else { snap(median(&mut ins) as f64, cal, &hard) };
@@ -801,24 +801,15 @@ fn refine_lesion_border(bx: &BoxGrid, lesion: &[bool], id: &[u32], cav: &[Cavity
             let mut counts = [0usize; 4]; // enamel, dentin, pulp, outside
             let mut outside_grey = Vec::new();
             let mut lesion_id = 0u32;
-            for dk in -3i64..=3 {
-                for dj in -3i64..=3 {
-                    for di in -3i64..=3 {
-                        let q = [p[0] as i64 + di, p[1] as i64 + dj, p[2] as i64 + dk];
-                        if (0..3).any(|c| q[c] < 0 || q[c] >= d[c] as i64) {
-                            continue;
-                        }
-                        let t = q[0] as usize + d[0] * (q[1] as usize + d[1] * q[2] as usize);
-                        if lesion[t] {
-                            lesion_id = lesion_id.max(id[t]);
-                        } else if away[t] >= 2.0 * h - 1e-3 {
-                            let lab = labels[global(t)];
-                            let k = if lab == enamel { 0 } else if lab == dentin { 1 } else if lab == pulp { 2 } else { 3 };
-                            counts[k] += 1;
-                            if k == 3 {
-                                outside_grey.push(vals[t]);
-                            }
-                        }
+            for t in cube_around(p, 3, d) {
+                if lesion[t] {
+                    lesion_id = lesion_id.max(id[t]);
+                } else if away[t] >= 2.0 * h - 1e-3 {
+                    let lab = labels[global(t)];
+                    let k = if lab == enamel { 0 } else if lab == dentin { 1 } else if lab == pulp { 2 } else { 3 };
+                    counts[k] += 1;
+                    if k == 3 {
+                        outside_grey.push(vals[t]);
                     }
                 }
             }
