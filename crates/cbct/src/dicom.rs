@@ -334,6 +334,19 @@ fn put_str(obj: &mut InMemDicomObject, tag: Tag, vr: VR, s: &str) {
     obj.put(DataElement::new(tag, vr, PrimitiveValue::from(s)));
 }
 
+/// The Image Pixel module of our files: one sample, MONOCHROME2, signed 16-bit, a k-slice's rows
+/// and columns.
+fn put_image_pixel_module(o: &mut InMemDicomObject, vol: &Volume) {
+    o.put(DataElement::new(tags::SAMPLES_PER_PIXEL, VR::US, PrimitiveValue::from(1u16)));
+    put_str(o, tags::PHOTOMETRIC_INTERPRETATION, VR::CS, "MONOCHROME2");
+    o.put(DataElement::new(tags::ROWS, VR::US, PrimitiveValue::from(vol.dims[1] as u16)));
+    o.put(DataElement::new(tags::COLUMNS, VR::US, PrimitiveValue::from(vol.dims[0] as u16)));
+    o.put(DataElement::new(tags::BITS_ALLOCATED, VR::US, PrimitiveValue::from(16u16)));
+    o.put(DataElement::new(tags::BITS_STORED, VR::US, PrimitiveValue::from(16u16)));
+    o.put(DataElement::new(tags::HIGH_BIT, VR::US, PrimitiveValue::from(15u16)));
+    o.put(DataElement::new(tags::PIXEL_REPRESENTATION, VR::US, PrimitiveValue::from(1u16)));
+}
+
 /// Writes one CT Image Storage file per k-slice (explicit VR little endian, int16 with rescale).
 /// The series is built in a temporary folder and renamed into place.
 pub fn write_dicom_series(vol: &Volume, dir: &Path) -> Result<()> {
@@ -391,14 +404,7 @@ pub fn write_dicom_series(vol: &Volume, dir: &Path) -> Result<()> {
             o.put(DataElement::new(tags::RESCALE_INTERCEPT, VR::DS, ds_multi(&[intercept])));
             o.put(DataElement::new(tags::RESCALE_SLOPE, VR::DS, PrimitiveValue::from(format!("{slope:.9e}").as_str())));
             put_str(&mut o, tags::RESCALE_TYPE, VR::LO, "US");
-            o.put(DataElement::new(tags::SAMPLES_PER_PIXEL, VR::US, PrimitiveValue::from(1u16)));
-            put_str(&mut o, tags::PHOTOMETRIC_INTERPRETATION, VR::CS, "MONOCHROME2");
-            o.put(DataElement::new(tags::ROWS, VR::US, PrimitiveValue::from(vol.dims[1] as u16)));
-            o.put(DataElement::new(tags::COLUMNS, VR::US, PrimitiveValue::from(vol.dims[0] as u16)));
-            o.put(DataElement::new(tags::BITS_ALLOCATED, VR::US, PrimitiveValue::from(16u16)));
-            o.put(DataElement::new(tags::BITS_STORED, VR::US, PrimitiveValue::from(16u16)));
-            o.put(DataElement::new(tags::HIGH_BIT, VR::US, PrimitiveValue::from(15u16)));
-            o.put(DataElement::new(tags::PIXEL_REPRESENTATION, VR::US, PrimitiveValue::from(1u16)));
+            put_image_pixel_module(&mut o, vol);
             let mut bytes = Vec::with_capacity(plane * 2);
             for &v in &vol.values[k * plane..(k + 1) * plane] {
                 let q = ((v as f64 - intercept) / slope).round().clamp(i16::MIN as f64, i16::MAX as f64) as i16;
@@ -462,14 +468,7 @@ pub fn write_dicom_multiframe(vol: &Volume, file: &Path) -> Result<()> {
         })
         .collect();
     o.put(DataElement::new(tags::PER_FRAME_FUNCTIONAL_GROUPS_SEQUENCE, VR::SQ, DataSetSequence::from(per)));
-    o.put(DataElement::new(tags::SAMPLES_PER_PIXEL, VR::US, PrimitiveValue::from(1u16)));
-    put_str(&mut o, tags::PHOTOMETRIC_INTERPRETATION, VR::CS, "MONOCHROME2");
-    o.put(DataElement::new(tags::ROWS, VR::US, PrimitiveValue::from(vol.dims[1] as u16)));
-    o.put(DataElement::new(tags::COLUMNS, VR::US, PrimitiveValue::from(vol.dims[0] as u16)));
-    o.put(DataElement::new(tags::BITS_ALLOCATED, VR::US, PrimitiveValue::from(16u16)));
-    o.put(DataElement::new(tags::BITS_STORED, VR::US, PrimitiveValue::from(16u16)));
-    o.put(DataElement::new(tags::HIGH_BIT, VR::US, PrimitiveValue::from(15u16)));
-    o.put(DataElement::new(tags::PIXEL_REPRESENTATION, VR::US, PrimitiveValue::from(1u16)));
+    put_image_pixel_module(&mut o, vol);
     let mut bytes = Vec::with_capacity(plane * vol.dims[2] * 2);
     for &v in &vol.values {
         bytes.extend_from_slice(&(v.round().clamp(-32768.0, 32767.0) as i16).to_le_bytes());

@@ -155,6 +155,23 @@ struct ToothEval {
     metal: f64,
 }
 
+impl ToothEval {
+    /// The material at a point inside the tooth: the innermost region containing it.
+    fn label(&self) -> Label {
+        if self.metal < 0.0 {
+            Label::Metal
+        } else if self.caries < 0.0 {
+            Label::Caries
+        } else if self.pulp < 0.0 {
+            Label::Pulp
+        } else if self.dentin_core < 0.0 {
+            Label::Dentin
+        } else {
+            Label::Enamel
+        }
+    }
+}
+
 impl Tooth {
     fn molar(fdi: u8, center: DVec3, scale: f64, caries: bool, metal: bool) -> Tooth {
         let s = scale;
@@ -354,17 +371,7 @@ impl Phantom {
             }
         }
         if let Some((e, _)) = inside {
-            let label = if e.metal < 0.0 {
-                Label::Metal
-            } else if e.caries < 0.0 {
-                Label::Caries
-            } else if e.pulp < 0.0 {
-                Label::Pulp
-            } else if e.dentin_core < 0.0 {
-                Label::Dentin
-            } else {
-                Label::Enamel
-            };
+            let label = e.label();
             return SceneEval { label, margin };
         }
         let b = self.bone(l);
@@ -528,17 +535,7 @@ impl Phantom {
             return (None, m);
         }
         m = m.min(e.dentin_core.abs()).min(e.pulp.abs()).min(e.caries.abs()).min(e.metal.abs());
-        let l = if e.metal < 0.0 {
-            Label::Metal
-        } else if e.caries < 0.0 {
-            Label::Caries
-        } else if e.pulp < 0.0 {
-            Label::Pulp
-        } else if e.dentin_core < 0.0 {
-            Label::Dentin
-        } else {
-            Label::Enamel
-        };
+        let l = e.label();
         (Some(l), m)
     }
 

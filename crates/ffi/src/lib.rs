@@ -165,13 +165,7 @@ pub fn phantom_stroke(params: &StrokeParams) -> Result<Vec<TissueSurface>, Strin
             end_mm: params.end_mm,
         };
         let outcome = stroke.run(&TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
-        Ok(outcome
-            .model
-            .tissues
-            .iter()
-            .zip(&outcome.tissues)
-            .map(|(t, o)| surface(t, o.volume_before_mm3, o.volume_after_mm3, o.removed_mm3))
-            .collect())
+        Ok(cut_surfaces(&outcome.model, &outcome.tissues))
     })
 }
 
@@ -237,14 +231,18 @@ pub fn prepare_tissues(
             force_n: params.force_n,
         };
         let prepared = request.run(&TissueTable::default()).map_err(|e| e.to_string())?;
-        Ok(prepared
-            .model
-            .tissues
-            .iter()
-            .zip(&prepared.tissues)
-            .map(|(t, o)| surface(t, o.volume_before_mm3, o.volume_after_mm3, o.removed_mm3))
-            .collect())
+        Ok(cut_surfaces(&prepared.model, &prepared.tissues))
     })
+}
+
+/// Surfaces of a cut model with each tissue's volume figures.
+fn cut_surfaces(model: &dentsim_sim::model::TissueModel, outcomes: &[dentsim_sim::preparation::TissueOutcome]) -> Vec<TissueSurface> {
+    model
+        .tissues
+        .iter()
+        .zip(outcomes)
+        .map(|(t, o)| surface(t, o.volume_before_mm3, o.volume_after_mm3, o.removed_mm3))
+        .collect()
 }
 
 /// Surfaces of a model nothing has cut yet.
