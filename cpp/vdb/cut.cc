@@ -31,7 +31,7 @@ struct Box {
 
 CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
                        std::array<uint32_t, 3> dims, rust::Slice<const float> tool,
-                       rust::Slice<const uint32_t> spans, float offset, bool logged) {
+                       rust::Slice<const uint32_t> spans, float offset, bool logged, bool measured) {
   const size_t expected = size_t(dims[0]) * dims[1] * dims[2];
   if (tool.size() != expected)
     throw std::invalid_argument("tool patch holds " + std::to_string(tool.size()) +
@@ -58,6 +58,9 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
     before.resize(expected);
   }
   float* old_values = before.data();
+  auto& after_weight = impl.scratch_weight;
+  if (after_weight.size() < expected) after_weight.resize(expected);
+  float* weights = after_weight.data();
   openvdb::tree::ValueAccessor<FloatTree, false> acc(grid.tree());
   CutStats stats{0, 0.0};
   const Box box{index_min, dims};
@@ -73,12 +76,15 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   // pointer stepping along x in the leaf's buffer (z is its fastest axis), or standing on the
   // tile value of a block without a leaf. An outside tile cannot change: its voxels just take
   // the tile value in `before`, for pass 2.
-  auto& changed = impl.scratch_changed;
-  changed.clear();
-  changed.reserve(expected);  // at most every voxel changes: grown once to the largest patch
-  auto& log = impl.scratch_log;
-  log.clear();
-  if (logged) log.reserve(expected);
+  // At most every voxel changes: the buffers grow once to the largest patch and are written
+  // through pointers (push_back built each entry on the stack and stalled reloading it).
+  auto& changed_buffer = impl.scratch_changed;
+  if (changed_buffer.size() < expected) changed_buffer.resize(expected);
+  ChangedVoxel* const changed = changed_buffer.data();
+  size_t n_changed = 0;
+  impl.log_count = 0;
+  if (logged && impl.scratch_log.size() < expected) impl.scratch_log.resize(expected);
+  VoxelChange* const log = impl.scratch_log.data();
   const int fx = floor_to_leaf(index_min[0]), fy = floor_to_leaf(index_min[1]),
             fz = floor_to_leaf(index_min[2]);
   const int nb_x = (hi[0] - fx) / L + 1, nb_y = (hi[1] - fy) / L + 1, nb_z = (hi[2] - fz) / L + 1;
@@ -114,6 +120,7 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
         const int n = xe - xs;
         const float* t_row = tp + row;
         float* old_row = old_values + row;
+        float* weight_row = weights + row;
         xs = xe;
         if (!leaf && !(tile < bg)) {
           for (int i = 0; i < n; ++i) old_row[i] = tile;
@@ -126,77 +133,88 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
           if (!(t < reach)) continue;  // unread; pass 2 knows it from the tool
           const float old = src[i * stride];
           old_row[i] = old;
-          if (!(t < bg)) continue;
           const float now = -t < bg ? -t : bg;
-          if (!(now > old)) continue;
+          const bool cuts = (t < bg) & (now > old);
+          if (measured) weight_row[i] = kernels.curvature_weight(cuts ? now : old);
+          if (!cuts) continue;
           if (!leaf) {  // an inside tile becomes a leaf
             leaf = leaves[b] = acc.touchLeaf(Coord(x & ~(L - 1), y & ~(L - 1), z & ~(L - 1)));
             src = leaf->buffer().data() + (((x & (L - 1)) << 2 * LOG2) | yz);
             stride = L * L;
           }
-          const Coord c(x + i, y, z);
+          const openvdb::Index at = openvdb::Index((((x + i) & (L - 1)) << 2 * LOG2) | yz);
           if (now < bg) {
-            leaf->setValueOn(c, now);
+            leaf->setValueOn(at, now);
           } else {
-            leaf->setValueOff(c, bg);
+            leaf->setValueOff(at, bg);
           }
-          changed.push_back(ChangedVoxel{uint32_t(row + i), uint16_t(xs - n + i), uint16_t(j),
-                                         uint16_t(k), old, now});
-          stats.removed_volume += kernels.inside_fraction(old) - kernels.inside_fraction(now);
-          if (logged) log.push_back(VoxelChange{c.x(), c.y(), c.z(), old});
+          ChangedVoxel& cv = changed[n_changed++];
+          cv.m = uint32_t(row + i);
+          cv.i = uint16_t(xs - n + i);
+          cv.j = uint16_t(j);
+          cv.k = uint16_t(k);
+          cv.old = old;
+          cv.now = now;
+          if (measured) stats.removed_volume += kernels.inside_fraction(old) - kernels.inside_fraction(now);
+          if (logged) {
+            VoxelChange& lc = log[impl.log_count++];
+            lc.i = x + i;
+            lc.j = y;
+            lc.k = z;
+            lc.value = old;
+          }
         }
       }
     }
-  stats.changed_voxels = changed.size();
-  if (changed.empty()) return stats;
+  stats.changed_voxels = n_changed;
+  if (n_changed == 0 || !measured) return stats;
   // Pass 2, the curvature term: sum over voxels v of W(old_v) Lap(old)_v - W(new_v) Lap(new)_v,
   // where W is the curvature weight. With d = new - old (non-zero only at changed voxels) and
   // Lap(new) = Lap(old) + Lap(d), regrouping the Lap(d) sum by the changed voxel it comes from
   // gives, per changed voxel c: (W(old_c) - W(new_c)) Lap(old)_c - d_c Lap(W(new))_c. So only the
-  // six neighbours of each changed voxel are read. They lie within the tool's reach (a voxel's
-  // distance to the tool changes by at most h), so pass 1 noted their old values in `before`; their
-  // new ones follow from the tool again. The tree is read only if that ever fails.
-  auto value = [&](int i, int j, int k, float& o, float& w) __attribute__((always_inline)) {
-    if (box.contains(i, j, k)) {
-      const size_t m = box.index(i, j, k);
-      const float t = tp[m] + offset;
-      if (t < reach) {
-        o = old_values[m];
-        const float now = -t < bg ? -t : bg;
-        w = t < bg && now > o ? now : o;
-        return;
-      }
-    }
-    o = w = acc.getValue(Coord(index_min[0] + i, index_min[1] + j, index_min[2] + k));
+  // six neighbours of each changed voxel are read. Pass 1 noted the old value and W(new) of every
+  // voxel within the tool's reach, which holds most neighbours (a voxel's distance to the tool
+  // changes by at most h); the others (past the box, or in the ball the last stroke already cut)
+  // are unchanged and read from pass 1's leaf table. Branch-light: this runs per changed voxel.
+  auto unchanged = [&](int i, int j, int k) -> float {
+    const int x = index_min[0] + i, y = index_min[1] + j, z = index_min[2] + k;
+    if (!box.contains(i, j, k)) return acc.getValue(Coord(x, y, z));
+    const size_t b = size_t((x - fx) / L) + size_t(nb_x) * (size_t((y - fy) / L) + size_t(nb_y) * size_t((z - fz) / L));
+    const Leaf* leaf = leaves[b];
+    return leaf ? leaf->buffer().data()[Leaf::coordToOffset(Coord(x, y, z))] : tiles[b];
   };
   double correction = 0.0;
   const int nx = int(dims[0]), ny = int(dims[1]), nz = int(dims[2]);
   const ptrdiff_t step[6] = {1, -1, nx, -nx, ptrdiff_t(nx) * ny, -ptrdiff_t(nx) * ny};
   static const int nb[6][3] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
-  const double inv_h2 = 1.0 / (h * h);
-  const float eps = float(kernels.eps);
-  for (const ChangedVoxel& c : changed) {
-    float sum_old = 0.f;
-    double sum_weight = 0.0;
+  const float inv_h2 = float(1.0 / (h * h));
+  for (size_t n = 0; n < n_changed; ++n) {
+    const ChangedVoxel& c = changed[n];
+    float sum_old = 0.f, sum_weight = 0.f;
     const bool inner = c.i > 0 && c.j > 0 && c.k > 0 && c.i + 1 < nx && c.j + 1 < ny && c.k + 1 < nz;
     for (int q = 0; q < 6; ++q) {
-      float o, w;
       const size_t m = c.m + step[q];
-      const float t = inner ? tp[m] + offset : reach;
-      if (t < reach) {  // read in pass 1
-        o = old_values[m];
-        const float now = -t < bg ? -t : bg;
-        w = t < bg && now > o ? now : o;
+      if (inner && tp[m] + offset < reach) {
+        sum_old += old_values[m];
+        sum_weight += weights[m];
       } else {
-        value(c.i + nb[q][0], c.j + nb[q][1], c.k + nb[q][2], o, w);
+        const int i = c.i + nb[q][0], j = c.j + nb[q][1], k = c.k + nb[q][2];
+        float o;
+        if (box.contains(i, j, k) && tp[box.index(i, j, k)] + offset < reach) {
+          const size_t n = box.index(i, j, k);
+          o = old_values[n];
+          sum_weight += weights[n];
+        } else {
+          o = unchanged(i, j, k);
+          sum_weight += kernels.curvature_weight(o);
+        }
+        sum_old += o;
       }
-      sum_old += o;
-      if (std::fabs(w) < eps) sum_weight += kernels.curvature_weight(w);  // zero beyond eps
     }
-    const double w_new = kernels.curvature_weight(c.now);
-    const double lap_old = (sum_old - 6.f * c.old) * inv_h2;
-    const double lap_weight = (sum_weight - 6.0 * w_new) * inv_h2;
-    correction += (kernels.curvature_weight(c.old) - w_new) * lap_old - double(c.now - c.old) * lap_weight;
+    const float w_new = weights[c.m];
+    const float lap_old = (sum_old - 6.f * c.old) * inv_h2;
+    const float lap_weight = (sum_weight - 6.f * w_new) * inv_h2;
+    correction += double((kernels.curvature_weight(c.old) - w_new) * lap_old - (c.now - c.old) * lap_weight);
   }
   stats.removed_volume = (stats.removed_volume - correction) * h * h * h;
   return stats;
@@ -204,17 +222,32 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
 
 CutStats LevelSet::subtract_dense(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
                                   rust::Slice<const float> tool, rust::Slice<const uint32_t> spans) {
-  return subtract_core(*impl, index_min, dims, tool, spans, 0.f, false);
+  return subtract_core(*impl, index_min, dims, tool, spans, 0.f, false, true);
 }
 
 CutStats LevelSet::subtract_logged(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
                                    rust::Slice<const float> tool, rust::Slice<const uint32_t> spans,
-                                   float offset) {
-  return subtract_core(*impl, index_min, dims, tool, spans, offset, true);
+                                   float offset, bool measured) {
+  return subtract_core(*impl, index_min, dims, tool, spans, offset, true, measured);
+}
+
+void LevelSet::reserve_cut(std::array<uint32_t, 3> dims) {
+  const size_t voxels = size_t(dims[0]) * dims[1] * dims[2];
+  // A box spans at most dims / 8 + 2 leaf blocks along each axis.
+  const size_t blocks = size_t(dims[0] / 8 + 2) * (dims[1] / 8 + 2) * (dims[2] / 8 + 2);
+  auto grow = [](auto& buffer, size_t n) {
+    if (buffer.size() < n) buffer.resize(n);
+  };
+  grow(impl->scratch_old, voxels);
+  grow(impl->scratch_weight, voxels);
+  grow(impl->scratch_changed, voxels);
+  grow(impl->scratch_log, voxels);
+  grow(impl->scratch_leaves, blocks);
+  grow(impl->scratch_tiles, blocks);
 }
 
 rust::Slice<const VoxelChange> LevelSet::last_changes() const {
-  return {impl->scratch_log.data(), impl->scratch_log.size()};
+  return {impl->scratch_log.data(), impl->log_count};
 }
 
 // Dry run for rate-limited cutting: the volume each offset would remove (smoothed Heaviside only;

@@ -34,8 +34,10 @@ struct LevelSet::Impl {
   // Reused by local cuts (old values over the patch, changed voxels, the patch's leaves and tile
   // values); never shrinks.
   std::vector<float> scratch_old;
+  std::vector<float> scratch_weight;  // curvature weight of each voxel's new value (cut.cc)
   std::vector<ChangedVoxel> scratch_changed;
-  std::vector<VoxelChange> scratch_log;  // the last logged cut's changes (old values)
+  std::vector<VoxelChange> scratch_log;  // the last logged cut's changes (old values): the first log_count
+  size_t log_count = 0;
   std::vector<FloatTree::LeafNodeType*> scratch_leaves;
   std::vector<float> scratch_tiles;
 };
@@ -89,12 +91,12 @@ struct VolumeKernels {
     return table[i] + (u - float(i)) * (table[i + 1] - table[i]);
   }
   double inside_fraction(float phi) const { return lookup(kKernels.heaviside, phi); }
-  double curvature_weight(float phi) const { return m_over_eps * lookup(kKernels.delta, phi); }
+  float curvature_weight(float phi) const { return m_over_eps * lookup(kKernels.delta, phi); }
 };
 
 CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
                        std::array<uint32_t, 3> dims, rust::Slice<const float> tool,
-                       rust::Slice<const uint32_t> spans, float offset, bool logged);
+                       rust::Slice<const uint32_t> spans, float offset, bool logged, bool measured);
 
 // Trilinear value and gradient (world units) at an index-space point.
 template <typename Accessor>

@@ -78,9 +78,11 @@ public:
   // Cutting with an undo log, rate limiting, journal replay, region reads (added for issue 4).
   CutStats subtract_logged(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
                            rust::Slice<const float> tool, rust::Slice<const uint32_t> spans,
-                           float offset);
+                           float offset, bool measured);
   // The voxels the last subtract_logged changed, with their old values (valid until the next cut).
   rust::Slice<const VoxelChange> last_changes() const;
+  // Grows the cut's working buffers for patches up to dims, so those cuts allocate nothing.
+  void reserve_cut(std::array<uint32_t, 3> dims);
   void removal_by_offset(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
                          rust::Slice<const float> tool, rust::Slice<const float> offsets,
                          rust::Slice<double> removed) const;

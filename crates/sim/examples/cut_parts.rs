@@ -5,6 +5,7 @@ use std::time::Instant;
 use dentsim_sim::bench::{bench_stroke_tip, bench_tooth};
 use dentsim_sim::burr::Burr;
 use dentsim_sim::sweep::{CutBall, Sweep};
+use dentsim_vdb::Measure;
 use glam::DVec3;
 
 fn main() {
@@ -18,6 +19,8 @@ fn main() {
     let mut sub_t = vec![vec![f64::INFINITY; n]; tissues];
     let mut changed = vec![0u64; tissues];
     let mut read = 0usize;
+    // SKIP=1: unmeasured cuts, as a session's haptic ticks make.
+    let measure = if std::env::var("SKIP").is_ok() { Measure::Skip } else { Measure::Volume };
     for _ in 0..rounds {
         let mut model = tooth.model.clone();
         model.voxelize_for_cutting().unwrap();
@@ -32,7 +35,7 @@ fn main() {
             for (k, t) in model.tissues.iter_mut().enumerate() {
                 log.clear();
                 let s = Instant::now();
-                let st = if std::env::var("NOLOG").is_ok() { t.grid.subtract(&sweep.patch).unwrap() } else { t.grid.subtract_logged(&sweep.patch, 0.0, &mut log).unwrap() };
+                let st = t.grid.subtract_logged(&sweep.patch, 0.0, measure, &mut log).unwrap();
                 sub_t[k][i] = sub_t[k][i].min(s.elapsed().as_secs_f64() * 1e6);
                 changed[k] += st.changed_voxels;
             }

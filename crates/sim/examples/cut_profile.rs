@@ -16,20 +16,34 @@ fn main() {
     let rounds: usize = std::env::args().nth(1).map_or(10, |a| a.parse().unwrap());
     let mut best = vec![f64::INFINITY; 400];
     let mut voxels = 0u64;
+    let mut per_tick = vec![0u64; 400];
     let mut removed = vec![0.0; model.tissues.len()];
     for _ in 0..rounds {
         let mut m = model.clone();
         m.voxelize_for_cutting().unwrap();
         let mut cutter = Cutter::default();
-        cutter.cut_with(&mut m.clone(), &burr, tip(0), tip(1), Feed::Geometric).unwrap();
+        // SKIP=1: unmeasured cuts, as a session's haptic ticks make.
+        if std::env::var("SKIP").is_ok() {
+            cutter.set_measure(dentsim_vdb::Measure::Skip);
+        }
+        cutter.prepare(&mut m, &burr, 0.02);
+        cutter.cut_with(&mut m, &burr, tip(0), tip(0), Feed::Geometric).unwrap();
         for (i, b) in best.iter_mut().enumerate() {
             let t = Instant::now();
             let r = cutter.cut_with(&mut m, &burr, tip(i), tip(i + 1), Feed::Geometric).unwrap();
             *b = b.min(t.elapsed().as_secs_f64() * 1e6);
             voxels += r.changed_voxels;
+            per_tick[i] = r.changed_voxels;
             for (k, (_, v)) in r.removed_mm3.iter().enumerate() {
                 removed[k] += v / rounds as f64;
             }
+        }
+    }
+    if std::env::var("SLOWEST").is_ok() {
+        let mut order: Vec<usize> = (0..best.len()).collect();
+        order.sort_by(|a, b| best[*b].total_cmp(&best[*a]));
+        for &i in &order[..12] {
+            println!("tick {i:>3}: {:>6.1} us, {} changed", best[i], per_tick[i]);
         }
     }
     best.sort_by(f64::total_cmp);

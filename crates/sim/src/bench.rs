@@ -3,6 +3,7 @@
 use std::time::Instant;
 
 use dentsim_devices::ScriptedPath;
+use dentsim_vdb::Measure;
 use glam::{DAffine3, DVec3};
 use parry3d::math::{Isometry, Point};
 use parry3d::query::PointQuery;
@@ -228,26 +229,37 @@ pub fn bench_stroke_tip(occlusal: DVec3, i: usize) -> DAffine3 {
 
 /// One 1 kHz tick's stroke (0.02 mm, i.e. 20 mm/s) of a 1.0 mm round burr through enamel into
 /// dentin, applied to every tissue; peer: build a tool sphere and `csgDifference` it per tissue.
-pub fn cut_stroke(tooth: &BenchTooth, cfg: BenchConfig) -> Result<BenchRow> {
+/// Two rows against the same peer timings: `cut_stroke`, the haptic tick's cut (a session's ticks
+/// do not measure removed volume), and `cut_stroke_measured`, the same cut with each tissue's
+/// removed volume measured, as `dentsim prepare` cuts.
+pub fn cut_stroke(tooth: &BenchTooth, cfg: BenchConfig) -> Result<Vec<BenchRow>> {
     let burr = Burr::round(1.0)?;
     let tip = |i| bench_stroke_tip(tooth.occlusal, i);
     let model = &tooth.model;
-    let mut ours_model = model.clone();
-    let mut cutter = Cutter::default();
     let mut failure = None;
-    // As the session does before its first tick: leaves for the grids' insides and the cutter's
-    // buffers grown, so the timed ticks take the allocation-free path.
-    if let Err(e) = ours_model.voxelize_for_cutting() {
-        failure.get_or_insert(e);
-    }
-    if let Err(e) = cutter.cut_with(&mut ours_model.clone(), &burr, tip(0), tip(1), Feed::Geometric) {
-        failure.get_or_insert(e);
-    }
-    let ours = Timings::measure(cfg.repetitions, 1, |i| {
-        if let Err(e) = cutter.cut_with(&mut ours_model, &burr, tip(i), tip(i + 1), Feed::Geometric) {
+    let mut ours = |measure: Measure| {
+        let mut ours_model = model.clone();
+        let mut cutter = Cutter::default();
+        cutter.set_measure(measure);
+        // As the session does before its first tick: leaves for the grids' insides and the
+        // cutter's buffers grown, so the timed ticks take the allocation-free path.
+        if let Err(e) = ours_model.voxelize_for_cutting() {
             failure.get_or_insert(e);
         }
-    });
+        cutter.prepare(&mut ours_model, &burr, tip(0).translation.distance(tip(1).translation));
+        // The path starts 0.9 mm deep: the burr sinks to its first pose untimed (a whole ball at
+        // once, which no 20 mm/s tick removes), and the ticks that follow are timed.
+        if let Err(e) = cutter.cut_with(&mut ours_model, &burr, tip(0), tip(0), Feed::Geometric) {
+            failure.get_or_insert(e);
+        }
+        Timings::measure(cfg.repetitions, 1, |i| {
+            if let Err(e) = cutter.cut_with(&mut ours_model, &burr, tip(i), tip(i + 1), Feed::Geometric) {
+                failure.get_or_insert(e);
+            }
+        })
+    };
+    let haptic = ours(Measure::Skip);
+    let measured = ours(Measure::Volume);
     let mut peer_model = model.clone();
     let peer = Timings::measure(cfg.repetitions, 1, |i| {
         let centre = tip(i + 1).transform_point3(DVec3::new(0.0, 0.0, 0.5));
@@ -257,9 +269,10 @@ pub fn cut_stroke(tooth: &BenchTooth, cfg: BenchConfig) -> Result<BenchRow> {
             }
         }
     });
+    let name = "createLevelSetSphere + csgDifference";
     match failure {
         Some(e) => Err(e),
-        None => Ok(BenchRow::new("cut_stroke", &ours, "createLevelSetSphere + csgDifference", &peer)),
+        None => Ok(vec![BenchRow::new("cut_stroke", &haptic, name, &peer), BenchRow::new("cut_stroke_measured", &measured, name, &peer)]),
     }
 }
 
@@ -416,7 +429,7 @@ pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<B
     progress("sdf_sample_random");
     rows.push(sdf_sample_random(model, cfg));
     progress("cut_stroke");
-    rows.push(cut_stroke(model, cfg)?);
+    rows.extend(cut_stroke(model, cfg)?);
     progress("remesh_stroke");
     rows.push(remesh_stroke(model, cfg)?);
     progress("force_query");

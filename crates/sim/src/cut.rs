@@ -10,7 +10,7 @@
 //! A round burr's stroke ends in a ball every grid has lost. While no one else edits the grids
 //! (their stamps are the ones this cutter left), the next stroke skips the voxels that ball
 //! already took: a haptic tick's stroke overlaps the previous one almost wholly.
-use dentsim_vdb::VoxelChange;
+use dentsim_vdb::{Measure, VoxelChange};
 use glam::{DAffine3, DVec3, IVec3};
 use serde::Serialize;
 
@@ -31,6 +31,8 @@ pub struct StrokeReport {
     pub substeps: usize,
     /// True when a removal rate held some tissue back this tick.
     pub rate_limited: bool,
+    /// False when the cutter skipped measuring (`removed_mm3` then reads 0; see [`Cutter::set_measure`]).
+    pub measured: bool,
 }
 
 impl StrokeReport {
@@ -54,6 +56,7 @@ impl StrokeReport {
         self.changed_voxels = 0;
         self.substeps = 0;
         self.rate_limited = false;
+        self.measured = true;
     }
 }
 
@@ -69,12 +72,35 @@ pub struct Cutter {
     /// The ball the last stroke ended in and the grids' stamps it left (see the module notes).
     done: Option<CutBall>,
     done_stamps: Vec<u64>,
+    measure: Measure,
 }
 
 impl Cutter {
     /// A cutter whose undo journal holds at most `history_bytes`.
     pub fn with_history_bytes(history_bytes: usize) -> Self {
         Cutter { history: History::with_bytes(history_bytes), ..Default::default() }
+    }
+
+    /// Whether geometric cuts measure the volume they remove. Skipping it halves a haptic tick's
+    /// cut; a session measures on the mesher's mirror instead. Rate-limited cuts always measure
+    /// (the removal bank needs it).
+    pub fn set_measure(&mut self, measure: Measure) {
+        self.measure = measure;
+    }
+
+    /// Grows every buffer (the cutter's and the grids') for strokes of `burr` whose head moves at
+    /// most `travel_mm`, so that such strokes allocate nothing: for the haptic thread, whose
+    /// strokes are bounded by the proxy's step.
+    pub fn prepare(&mut self, model: &mut TissueModel, burr: &Burr, travel_mm: f64) {
+        let Some(h) = model.voxel_size() else { return };
+        let band = model.tissues.iter().map(|t| f64::from(t.grid.background())).fold(0.0, f64::max);
+        let dims = self.sweep.reserve(burr, h, band, travel_mm);
+        let voxels = dims.iter().map(|d| *d as usize).product::<usize>();
+        self.log.reserve(voxels.saturating_sub(self.log.len()));
+        for t in &mut model.tissues {
+            t.grid.reserve_cut(dims);
+        }
+        self.report.reset_for(model);
     }
 
     /// Removes the burr's swept volume from `from` to `to` out of every tissue (geometric cut).
@@ -145,7 +171,9 @@ impl Cutter {
             // A tissue changes at most every patch voxel: room for that once, not a regrowth
             // whenever a tick changes more voxels than any before it.
             self.log.reserve(self.sweep.patch.values.len());
-            let stats = tissue.grid.subtract_logged(&self.sweep.patch, offset, &mut self.log)?;
+            let measure = if budget.is_some() { Measure::Volume } else { self.measure };
+            self.report.measured &= measure == Measure::Volume;
+            let stats = tissue.grid.subtract_logged(&self.sweep.patch, offset, measure, &mut self.log)?;
             if let Some(b) = budget {
                 self.bank.spend(t, stats.removed_mm3, b);
             }

@@ -2,6 +2,7 @@
 //! contact force → removal budget → cut → filter, watchdog and clamp → force for the device.
 //! The session thread calls it at 1 kHz; replay calls it again on the logged device states.
 use dentsim_devices::{DeviceProfile, DeviceState};
+use dentsim_vdb::Measure;
 use glam::{DAffine3, DVec3};
 use serde::{Deserialize, Serialize};
 
@@ -88,8 +89,11 @@ pub struct TickOutput {
     pub proxy: DVec3,
     /// The stroke cut this tick, if any.
     pub cut: Option<(DAffine3, DAffine3)>,
-    /// Volume removed this tick (mm³, all tissues).
+    /// Volume removed this tick (mm³, all tissues); 0 when the core does not measure
+    /// ([`HapticCore::set_measure`]).
     pub removed_mm3: f64,
+    /// Voxels this tick's cut changed (all tissues).
+    pub changed_voxels: u64,
     /// Watchdog gain applied (1 = normal).
     pub gain: f64,
 }
@@ -158,6 +162,20 @@ impl HapticCore {
             burr,
             params,
         })
+    }
+
+    /// Readies `model` for this core's cuts before the first tick: leaves for the grids' insides
+    /// and every buffer a stroke needs (strokes are at most one proxy step), so that cut ticks
+    /// allocate nothing.
+    pub fn prepare_cutting(&mut self, model: &mut TissueModel) -> Result<()> {
+        model.voxelize_for_cutting()?;
+        self.cutter.prepare(model, &self.burr, self.params.max_step_mm);
+        Ok(())
+    }
+
+    /// Whether cuts measure the volume they remove (the default; see [`Cutter::set_measure`]).
+    pub fn set_measure(&mut self, measure: Measure) {
+        self.cutter.set_measure(measure);
     }
 
     pub fn burr(&self) -> &Burr {
@@ -294,6 +312,7 @@ impl HapticCore {
             total += v;
         }
         out.cut = Some((from, to));
+        out.changed_voxels = report.changed_voxels;
         Ok(total)
     }
 }

@@ -14,7 +14,9 @@ use crate::error::{Error, Result};
 use crate::haptics::HapticParams;
 
 pub const MAGIC: [u8; 8] = *b"DSIMLOG\0";
-pub const VERSION: u32 = 1;
+/// 2: records carry the tick's changed voxels, no longer its removed volume (live ticks do not
+/// measure it; a replay does).
+pub const VERSION: u32 = 2;
 pub const RECORD_BYTES: usize = 8 + 8 + 8 + 12 * 8 + 4 + 8 + 3 * 8 + 3 * 8 + 3 * 8 + 4 + 4 + 8;
 
 /// Flag bits of a record.
@@ -51,8 +53,8 @@ pub struct TickRecord {
     /// Index of the tissue in contact, −1 for none.
     pub tissue: i32,
     pub flags: u32,
-    /// Volume removed this tick (mm³).
-    pub removed_mm3: f64,
+    /// Voxels the tick's cut changed, over all tissues.
+    pub changed_voxels: u64,
 }
 
 impl TickRecord {
@@ -76,7 +78,7 @@ impl TickRecord {
         }
         w.u32(self.tissue as u32);
         w.u32(self.flags);
-        w.f64(self.removed_mm3);
+        w.u64(self.changed_voxels);
     }
 
     pub fn decode(buf: &[u8; RECORD_BYTES]) -> Self {
@@ -103,7 +105,7 @@ impl TickRecord {
             proxy,
             tissue: r.u32() as i32,
             flags: r.u32(),
-            removed_mm3: r.f64(),
+            changed_voxels: r.u64(),
         }
     }
 }
@@ -225,7 +227,7 @@ mod tests {
             proxy: DVec3::new(0.5, 0.25, 0.125),
             tissue: -1,
             flags: FLAG_CUT | FLAG_MISSED,
-            removed_mm3: 1e-4,
+            changed_voxels: 3047,
         };
         let mut buf = [0u8; RECORD_BYTES];
         r.encode(&mut buf);

@@ -51,7 +51,7 @@ pub fn replay_with_progress(log: &SessionLog, mut model: TissueModel, progress: 
     }
     let mut core = HapticCore::new(log.header.params.clone(), &model)?;
     // As the session did, so the trees (not only the values) come out the same.
-    model.voxelize_for_cutting()?;
+    core.prepare_cutting(&mut model)?;
     let mut max_diff = 0.0f64;
     let mut forces = Vec::with_capacity(log.records.len());
     let total = log.records.len().max(1) as f64;

@@ -20,7 +20,7 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use dentsim_devices::{Device, DeviceState};
-use dentsim_vdb::TriMesh;
+use dentsim_vdb::{Measure, TriMesh};
 use glam::{DAffine3, DVec3};
 
 use crate::burr::Burr;
@@ -71,7 +71,7 @@ pub struct SessionOutcome {
     /// Records or strokes the queues could not take (should be 0).
     pub dropped_records: u64,
     pub dropped_strokes: u64,
-    /// Volume removed per tissue (mm³).
+    /// Volume removed per tissue (mm³): the volume at the start minus the volume at the end.
     pub removed_mm3: Vec<(String, f64)>,
     /// Ticks spent in contact with each tissue.
     pub contact_ticks: Vec<(String, u64)>,
@@ -110,7 +110,6 @@ struct HapticStats {
     dropped_records: u64,
     dropped_strokes: u64,
     trips: u32,
-    removed: Vec<f64>,
 }
 
 struct LoggerStats {
@@ -134,6 +133,8 @@ pub struct Session {
     mesher: Option<JoinHandle<MesherStats>>,
     names: Vec<String>,
     log_path: Option<PathBuf>,
+    /// Each tissue's volume at the start: the session's removed volume is what is gone at the end.
+    start_volumes: Vec<f64>,
 }
 
 const QUEUE_RECORDS: usize = 1 << 14;
@@ -150,7 +151,7 @@ impl Session {
                 return Err(invalid("mesher_hz", format!("{hz}, expected 0 < hz <= 1000")));
             }
         }
-        let core = HapticCore::new(options.params.clone(), &model)?;
+        let mut core = HapticCore::new(options.params.clone(), &model)?;
         let names: Vec<String> = model.tissues.iter().map(|t| t.props.name.clone()).collect();
         let shared = Arc::new(Shared {
             stop: AtomicBool::new(false),
@@ -180,9 +181,14 @@ impl Session {
         };
         let mirror = options.mesher_hz.map(|hz| (model.clone(), hz));
         let burr = core.burr().clone();
-        // Leaves for the whole interior now, so the haptic thread's cuts never allocate them.
+        // Leaves for the whole interior and the cut buffers now, so the haptic thread's cuts
+        // never allocate.
         let mut model = model;
-        model.voxelize_for_cutting()?;
+        core.prepare_cutting(&mut model)?;
+        // The haptic ticks skip measuring removed volume (half a cut's cost): it follows from the
+        // volumes before and after, and the mesher's mirror and a replay measure every stroke.
+        core.set_measure(Measure::Skip);
+        let start_volumes = model.tissues.iter().map(|t| t.grid.volume()).collect();
 
         let s = shared.clone();
         let n_tissues = names.len();
@@ -218,7 +224,7 @@ impl Session {
                 (model, r)
             })
             .map_err(|e| invalid("haptic thread", e.to_string()))?;
-        Ok(Session { shared, haptic: Some(haptic), logger: Some(logger), mesher, names, log_path })
+        Ok(Session { shared, haptic: Some(haptic), logger: Some(logger), mesher, names, log_path, start_volumes })
     }
 
     /// The latest tick the logger has seen (for displays; lags the haptic thread by ≤ 2 ms).
@@ -261,7 +267,7 @@ impl Session {
             device_faults: haptic.faults,
             dropped_records: haptic.dropped_records,
             dropped_strokes: haptic.dropped_strokes,
-            removed_mm3: names.iter().cloned().zip(haptic.removed).collect(),
+            removed_mm3: names.iter().cloned().zip(&self.start_volumes).zip(&model.tissues).map(|((n, v0), t)| (n, v0 - t.grid.volume())).collect(),
             contact_ticks: names.iter().cloned().zip(logger.contact_ticks).collect(),
             max_force_n: logger.max_force,
             periods_us: logger.periods_us,
@@ -341,7 +347,7 @@ fn haptic_loop<D: Device>(
     shared: &Shared,
 ) -> Result<HapticStats> {
     let period = options.params.period_s;
-    let mut stats = HapticStats { ticks: 0, missed: 0, faults: 0, dropped_records: 0, dropped_strokes: 0, trips: 0, removed: Vec::new() };
+    let mut stats = HapticStats { ticks: 0, missed: 0, faults: 0, dropped_records: 0, dropped_strokes: 0, trips: 0 };
     let mut last: Option<DeviceState> = None;
     let start = Instant::now();
     let mut tick: u64 = 0;
@@ -372,10 +378,7 @@ fn haptic_loop<D: Device>(
         let out = core.tick(model, &state, missed);
         let out = match out {
             Ok(o) => o,
-            Err(e) => {
-                stats.removed = core.removed_mm3.clone();
-                return Err(e);
-            }
+            Err(e) => return Err(e),
         };
         device.send_force(out.force, out.torque);
         if let Some((from, to)) = out.cut {
@@ -397,7 +400,7 @@ fn haptic_loop<D: Device>(
             proxy: out.proxy,
             tissue: out.raw.tissue.map_or(-1, i32::from),
             flags,
-            removed_mm3: out.removed_mm3,
+            changed_voxels: out.changed_voxels,
         };
         if records.push(record).is_err() {
             stats.dropped_records += 1;
@@ -409,7 +412,6 @@ fn haptic_loop<D: Device>(
     }
     stats.ticks = tick;
     stats.trips = core.watchdog_trips();
-    stats.removed = core.removed_mm3.clone();
     Ok(stats)
 }
 

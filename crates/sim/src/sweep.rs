@@ -65,6 +65,19 @@ pub fn rotation_of(pose: &DAffine3, what: &str) -> Result<DQuat> {
 }
 
 impl Sweep {
+    /// Grows the buffers for any stroke whose head's bounding-ball centre moves at most
+    /// `travel_mm` (see [`build`](Self::build)); returns the largest patch's voxels per axis.
+    pub fn reserve(&mut self, burr: &Burr, voxel: f64, band: f64, travel_mm: f64) -> [u32; 3] {
+        let reach = burr.bound().1 + band + 1.5 * voxel;
+        // The box runs from floor((lo − reach)/h) to ceil((hi + reach)/h), both inclusive.
+        let side = ((2.0 * reach + travel_mm.max(0.0)) / voxel).ceil() as u32 + 3;
+        let total = side as usize * side as usize * side as usize;
+        let p = &mut self.patch;
+        p.values.reserve(total.saturating_sub(p.values.len()));
+        p.spans.reserve((2 * side as usize * side as usize).saturating_sub(p.spans.len()));
+        [side; 3]
+    }
+
     /// Fills `patch` with the swept head's signed distance over its box plus `band` mm (the
     /// largest background of the grids it will cut), skipping what `done` already removed.
     pub fn build(&mut self, burr: &Burr, from: DAffine3, to: DAffine3, voxel: f64, band: f64, done: Option<CutBall>) -> Result<()> {

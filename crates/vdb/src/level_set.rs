@@ -52,11 +52,20 @@ pub struct DenseVolume<'a> {
     pub values: &'a [f32],
 }
 
+/// Whether a cut measures the volume it removes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Measure {
+    #[default]
+    Volume,
+    Skip,
+}
+
 /// What a local cut changed.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct CutStats {
     pub changed_voxels: u64,
-    /// Enclosed volume removed (mm³), measured as [`LevelSet::volume`] measures.
+    /// Enclosed volume removed (mm³), measured as [`LevelSet::volume`] measures; 0 when the cut
+    /// was not measured.
     pub removed_mm3: f64,
 }
 
@@ -277,15 +286,23 @@ impl LevelSet {
 
     /// [`subtract`](Self::subtract) with the tool grown by `-offset` (a positive offset shrinks it,
     /// for partial-depth cuts), appending each changed voxel's old value to `log` (its capacity is
-    /// reused: no allocation once it is large enough).
-    pub fn subtract_logged(&mut self, patch: &DensePatch, offset: f32, log: &mut Vec<VoxelChange>) -> Result<CutStats> {
+    /// reused: no allocation once it is large enough). [`Measure::Skip`] leaves the removed volume
+    /// at 0: its curvature term costs as much again as the cut.
+    pub fn subtract_logged(&mut self, patch: &DensePatch, offset: f32, measure: Measure, log: &mut Vec<VoxelChange>) -> Result<CutStats> {
+        let measured = measure == Measure::Volume;
         let s = self
             .edit()
-            .subtract_logged(patch.index_min.to_array(), patch.dims, &patch.values, &patch.spans, offset)
+            .subtract_logged(patch.index_min.to_array(), patch.dims, &patch.values, &patch.spans, offset, measured)
             .map_err(openvdb("subtract tool patch"))?;
         // Copied in one go: a push per voxel across the bridge cost a tenth of the cut.
         log.extend_from_slice(self.inner.last_changes());
         Ok(CutStats { changed_voxels: s.changed_voxels, removed_mm3: s.removed_volume })
+    }
+
+    /// Grows the cut's working buffers for patches of up to `dims` voxels, so such cuts allocate
+    /// nothing (values unchanged).
+    pub fn reserve_cut(&mut self, dims: [u32; 3]) {
+        self.inner.pin_mut().reserve_cut(dims);
     }
 
     /// Dry run: the volume (mm³, smoothed Heaviside) each tool offset would remove; nothing changes.
@@ -332,7 +349,7 @@ impl LevelSet {
     /// voxel by shifting the values, beyond by OpenVDB's `LevelSetFilter::offset` (re-tracks the
     /// narrow band). A small offset changes the enclosed volume by about area × distance.
     pub fn offset(&mut self, distance: f64) -> Result<()> {
-        self.inner.pin_mut().offset(distance).map_err(openvdb("level set offset"))
+        self.edit().offset(distance).map_err(openvdb("level set offset"))
     }
 
     /// The zero iso-surface as triangles with outward normals (OpenVDB's `volumeToMesh`).

@@ -11,7 +11,7 @@ mod sys;
 
 pub use error::{Error, Result};
 pub use file::{read_file, write_file, FileGrid};
-pub use level_set::{CutStats, DensePatch, DenseVolume, IndexBox, LevelSet, MetaValue, Reader, VoxelChange};
+pub use level_set::{CutStats, DensePatch, DenseVolume, IndexBox, LevelSet, Measure, MetaValue, Reader, VoxelChange};
 pub use mesh::TriMesh;
 
 /// Voxels per edge of an OpenVDB leaf node (the tree's `LeafNode<float, 3>`).

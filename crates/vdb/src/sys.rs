@@ -108,8 +108,10 @@ pub(crate) mod ffi {
             tool: &[f32],
             spans: &[u32],
             offset: f32,
+            measured: bool,
         ) -> Result<CutStats>;
         fn last_changes(self: &LevelSet) -> &[VoxelChange];
+        fn reserve_cut(self: Pin<&mut LevelSet>, dims: [u32; 3]);
         fn removal_by_offset(
             self: &LevelSet,
             index_min: [i32; 3],

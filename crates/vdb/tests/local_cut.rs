@@ -2,7 +2,7 @@
 //! curvature-corrected volume measure.
 use std::f64::consts::PI;
 
-use dentsim_vdb::{DensePatch, LevelSet, VoxelChange};
+use dentsim_vdb::{DensePatch, LevelSet, Measure, VoxelChange};
 use glam::{DVec3, IVec3};
 
 const H: f64 = 0.05;
@@ -48,7 +48,7 @@ fn logged_cut_replays_back_exactly() {
     g.read_dense(lo, dims, &mut before).unwrap();
     let v0 = g.volume();
     let mut log: Vec<VoxelChange> = Vec::with_capacity(1 << 16);
-    let stats = g.subtract_logged(&patch, 0.0, &mut log).unwrap();
+    let stats = g.subtract_logged(&patch, 0.0, Measure::Volume, &mut log).unwrap();
     assert_eq!(stats.changed_voxels as usize, log.len());
     assert!((v0 - g.volume() - stats.removed_mm3).abs() < 1e-9 * v0.max(1.0) + 1e-7, "bookkeeping");
     // Every changed voxel's new value is max(old, -tool).
@@ -66,6 +66,20 @@ fn logged_cut_replays_back_exactly() {
 }
 
 #[test]
+fn an_unmeasured_cut_changes_the_same_voxels_to_the_same_values() {
+    let patch = tool(DVec3::new(1.2, 0.3, -0.2), 0.5);
+    let (mut measured, mut skipped) = (ball(1.5), ball(1.5));
+    let (mut log_m, mut log_s) = (Vec::new(), Vec::new());
+    let m = measured.subtract_logged(&patch, 0.05, Measure::Volume, &mut log_m).unwrap();
+    let s = skipped.subtract_logged(&patch, 0.05, Measure::Skip, &mut log_s).unwrap();
+    assert!(m.removed_mm3 > 0.01, "{}", m.removed_mm3);
+    assert_eq!(s.removed_mm3, 0.0);
+    assert_eq!(m.changed_voxels, s.changed_voxels);
+    assert_eq!(log_m, log_s);
+    assert_eq!(measured.content_hash(), skipped.content_hash());
+}
+
+#[test]
 fn an_offset_shrinks_the_tool_and_the_dry_run_predicts_it() {
     let patch = tool(DVec3::new(1.5, 0.0, 0.0), 0.6);
     let offsets = [0.0f32, 0.1, 0.2, 0.3, 0.7];
@@ -75,7 +89,7 @@ fn an_offset_shrinks_the_tool_and_the_dry_run_predicts_it() {
     assert_eq!(predicted[4], 0.0);
     for (o, p) in offsets.iter().zip(predicted) {
         let mut g = ball(1.5);
-        let s = g.subtract_logged(&patch, *o, &mut Vec::new()).unwrap();
+        let s = g.subtract_logged(&patch, *o, Measure::Volume, &mut Vec::new()).unwrap();
         // The dry run leaves out the curvature term: within a few per cent of the real cut.
         assert!((s.removed_mm3 - p).abs() <= 0.05 * p + 1e-4, "offset {o}: {} vs {p}", s.removed_mm3);
     }
