@@ -105,9 +105,29 @@ inline std::array<float, 4> trilinear(Accessor& acc, const openvdb::Vec3d& ijk, 
   const Coord c(int(f.x()), int(f.y()), int(f.z()));
   const double u = ijk.x() - f.x(), v = ijk.y() - f.y(), w = ijk.z() - f.z();
   float s[2][2][2];
-  for (int a = 0; a < 2; ++a)
-    for (int b = 0; b < 2; ++b)
-      for (int d = 0; d < 2; ++d) s[a][b][d] = acc.getValue(c.offsetBy(a, b, d));
+  // Two times in three the 2x2x2 stencil lies in one leaf block: one probe, then eight reads
+  // from its leaf, or one tile value for all eight (no leaf: most burr points are in open air,
+  // where each of eight accessor reads used to walk down from the root's children).
+  using Leaf = FloatTree::LeafNodeType;
+  constexpr int last = int(Leaf::DIM) - 1;
+  const bool one_block = (c.x() & last) < last && (c.y() & last) < last && (c.z() & last) < last;
+  const Leaf* leaf = one_block ? acc.probeConstLeaf(c) : nullptr;
+  if (leaf) {
+    const float* v = leaf->buffer().data() + Leaf::coordToOffset(c);
+    constexpr int sx = 1 << 2 * Leaf::LOG2DIM, sy = 1 << Leaf::LOG2DIM;
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b)
+        for (int d = 0; d < 2; ++d) s[a][b][d] = v[a * sx + b * sy + d];
+  } else if (one_block) {
+    const float tile = acc.getValue(c);
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b)
+        for (int d = 0; d < 2; ++d) s[a][b][d] = tile;
+  } else {
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b)
+        for (int d = 0; d < 2; ++d) s[a][b][d] = acc.getValue(c.offsetBy(a, b, d));
+  }
   auto lerp = [](double p, double q, double t) { return p + (q - p) * t; };
   const double x00 = lerp(s[0][0][0], s[1][0][0], u), x10 = lerp(s[0][1][0], s[1][1][0], u);
   const double x01 = lerp(s[0][0][1], s[1][0][1], u), x11 = lerp(s[0][1][1], s[1][1][1], u);

@@ -12,9 +12,11 @@ void LevelSet::sample_values(rust::Slice<const float> xyz, rust::Slice<float> ou
   const auto& xform = impl->grid->transform();
   const double h = voxel_size();
   const size_t n = std::min(xyz.size() / 3, out.size());
+  const float* p = xyz.data();  // rust::Slice indexing calls out of line per element
+  float* o = out.data();
   for (size_t i = 0; i < n; ++i) {
-    const auto ijk = xform.worldToIndex(openvdb::Vec3d(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]));
-    out[i] = trilinear(acc, ijk, h)[0];
+    const auto ijk = xform.worldToIndex(openvdb::Vec3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]));
+    o[i] = trilinear(acc, ijk, h)[0];
   }
 }
 
@@ -23,10 +25,12 @@ void LevelSet::sample_value_gradients(rust::Slice<const float> xyz, rust::Slice<
   const auto& xform = impl->grid->transform();
   const double h = voxel_size();
   const size_t n = std::min(xyz.size() / 3, out.size() / 4);
+  const float* p = xyz.data();
+  float* o = out.data();
   for (size_t i = 0; i < n; ++i) {
-    const auto ijk = xform.worldToIndex(openvdb::Vec3d(xyz[3 * i], xyz[3 * i + 1], xyz[3 * i + 2]));
+    const auto ijk = xform.worldToIndex(openvdb::Vec3d(p[3 * i], p[3 * i + 1], p[3 * i + 2]));
     const auto g = trilinear(acc, ijk, h);
-    for (int k = 0; k < 4; ++k) out[4 * i + k] = g[k];
+    for (int k = 0; k < 4; ++k) o[4 * i + k] = g[k];
   }
 }
 

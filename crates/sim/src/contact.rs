@@ -76,6 +76,15 @@ impl BurrSamples {
             normals.push(n);
             areas.push(rho * rho * solid_angle / dir.dot(n).max(0.2));
         }
+        // Neighbours in memory, neighbours in space: the grids' accessors cache one leaf, so a
+        // query walking the points in Morton order mostly stays in it (Fibonacci order jumps by
+        // the golden angle and missed the cache nearly every point).
+        let keys: Vec<u32> = points.iter().map(|p| morton_key(*p - centre, reach.max(1e-9))).collect();
+        let mut order: Vec<usize> = (0..count).collect();
+        order.sort_by_key(|&i| (keys[i], i));
+        let points = order.iter().map(|&i| points[i]).collect();
+        let normals = order.iter().map(|&i| normals[i]).collect();
+        let areas = order.iter().map(|&i| areas[i]).collect();
         Ok(BurrSamples { points, normals, areas, centre, burr: burr.clone() })
     }
 
@@ -152,6 +161,18 @@ impl BurrSamples {
     }
 }
 
+/// Morton (Z-order) key of `p` within the cube of half-side `half`, 10 bits per axis.
+fn morton_key(p: DVec3, half: f64) -> u32 {
+    let q = |v: f64| (((v / half + 1.0) * 0.5).clamp(0.0, 1.0) * 1023.0) as u32;
+    let spread = |mut v: u32| {
+        v = (v | (v << 16)) & 0x0300_00ff;
+        v = (v | (v << 8)) & 0x0300_f00f;
+        v = (v | (v << 4)) & 0x030c_30c3;
+        (v | (v << 2)) & 0x0924_9249
+    };
+    spread(q(p.x)) | spread(q(p.y)) << 1 | spread(q(p.z)) << 2
+}
+
 /// One burr point inside a tissue.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ContactPoint {
@@ -171,11 +192,14 @@ pub struct ContactPoint {
 pub struct ContactQuery {
     pub samples: BurrSamples,
     xyz: Vec<f32>,
-    /// Values per tissue, tissue-major.
+    /// Values per tissue, tissue-major, of the candidate points (see `query`).
     values: Vec<f32>,
     gather_xyz: Vec<f32>,
     gather_out: Vec<f32>,
     gather_index: Vec<u32>,
+    /// The points a query samples (indices) and their world positions.
+    candidates: Vec<u32>,
+    candidate_xyz: Vec<f32>,
     owner: Vec<u16>,
     contacts: Vec<ContactPoint>,
     tissues: usize,
@@ -213,6 +237,8 @@ impl ContactQuery {
             gather_xyz: vec![0.0; 3 * n],
             gather_out: vec![0.0; 4 * n],
             gather_index: vec![0; n],
+            candidates: vec![0; n],
+            candidate_xyz: vec![0.0; 3 * n],
             owner: vec![0; n],
             contacts: Vec::with_capacity(n),
             tissues,
@@ -278,24 +304,38 @@ impl ContactQuery {
                 self.freed_values[i] = -self.samples.burr.sdf(to_tool.transform_point3(w));
             }
         }
+        // Candidates: with a freed head, a point that deep in its free space cannot touch, whatever
+        // the grids say (in cut mode, the trailing half of the burr on each proxy sub-step).
+        let mut candidates = 0usize;
+        for i in 0..n {
+            if self.freed.is_none() || self.freed_values[i] < f64::from(threshold) {
+                self.candidates[candidates] = i as u32;
+                self.candidate_xyz[3 * candidates..3 * candidates + 3].copy_from_slice(&self.xyz[3 * i..3 * i + 3]);
+                candidates += 1;
+            }
+        }
+        if candidates == 0 {
+            return &self.contacts;
+        }
         // Rotations keep distances, so the sample sphere maps to a sphere of the same radius.
         let centre = pose.transform_point3(self.samples.centre);
         let radius = self.reach + f64::from(threshold.max(0.0)) + 1e-6;
         for (t, tissue) in model.tissues.iter().take(tissues).enumerate() {
             let reach = self.may_reach(t, centre, radius);
-            let values = &mut self.values[t * n..(t + 1) * n];
+            let values = &mut self.values[t * n..t * n + candidates];
             if reach {
-                tissue.grid.sample_values(&self.xyz, values);
+                tissue.grid.sample_values(&self.candidate_xyz[..3 * candidates], values);
             } else {
                 values.fill(f32::MAX);
             }
         }
         // Owner tissue of every point below the threshold.
         let mut inside = 0usize;
-        for i in 0..n {
+        for (k, &i) in self.candidates[..candidates].iter().enumerate() {
+            let i = i as usize;
             let mut best = (f32::MAX, 0u16);
             for t in 0..tissues {
-                let v = self.values[t * n + i];
+                let v = self.values[t * n + k];
                 if v < best.0 {
                     best = (v, t as u16);
                 }
