@@ -78,9 +78,11 @@ pub struct SessionOutcome {
     pub max_force_n: f64,
     /// Intervals between tick starts (µs), from the log records.
     pub periods_us: Vec<f64>,
-    /// Stroke cut → mesh of it published (ms), one per published mesh batch.
+    /// Stroke cut → mesh showing it published (ms), one per stroke that changed voxels.
     pub cut_to_visible_ms: Vec<f64>,
     pub meshes_published: u64,
+    /// The mesher's last published mesh of each tissue (model order; `None` if never cut).
+    pub final_meshes: Vec<Option<Arc<TriMesh>>>,
     pub log_path: Option<PathBuf>,
     /// The contact sequence collapsed to its changes: (tissue index or −1, first tick).
     pub contact_changes: Vec<(i32, u64)>,
@@ -273,6 +275,7 @@ impl Session {
             periods_us: logger.periods_us,
             cut_to_visible_ms: mesher.as_ref().map_or_else(Vec::new, |m| m.latencies_ms.clone()),
             meshes_published: mesher.map_or(0, |m| m.published),
+            final_meshes: self.shared.meshes.lock().unwrap_or_else(|p| p.into_inner()).clone(),
             log_path: self.log_path.clone(),
             contact_changes: logger.changes,
             last_record: logger.last,
@@ -464,27 +467,37 @@ fn logger_loop(
 fn mesher_loop(mut rx: rtrb::Consumer<StrokeMsg>, mut mirror: TissueModel, burr: Burr, hz: f64, shared: &Shared) -> MesherStats {
     let mut stats = MesherStats { latencies_ms: Vec::new(), published: 0 };
     let mut cutter = Cutter::default();
+    // The mirror only needs the geometry; the session's removed volume comes from the grids.
+    cutter.set_measure(Measure::Skip);
     // Chunked meshing re-meshes only the leaves a stroke touched; without it (it failed to
     // start), whole tissues are re-meshed.
     let mut chunks = Mesher::full(&mirror).ok();
     let mut dirty_chunks = Vec::new();
     let mut dirty = vec![false; mirror.tissues.len()];
-    let mut oldest: Option<Instant> = None;
-    let min_interval = Duration::from_secs_f64(1.0 / hz);
-    let mut last_mesh = Instant::now() - min_interval;
+    // When each stroke since the last published mesh was cut (haptic tick time).
+    let mut waiting: Vec<Instant> = Vec::new();
+    let period = Duration::from_secs_f64(1.0 / hz);
+    let mut next_mesh = Instant::now();
     loop {
         let done = shared.haptic_done.load(Ordering::Acquire);
         while let Ok(s) = rx.pop() {
             if let Ok(report) = cutter.cut(&mut mirror, &burr, s.from, s.to) {
-                for (d, (_, v)) in dirty.iter_mut().zip(&report.removed_mm3) {
-                    *d |= *v != 0.0;
+                if report.changed_voxels > 0 {
+                    waiting.push(s.at);
                 }
-                oldest.get_or_insert(s.at);
             }
         }
-        if dirty.iter().any(|d| *d) && last_mesh.elapsed() >= min_interval {
+        let now = Instant::now();
+        if !waiting.is_empty() && now >= next_mesh {
+            // A fixed rate from when meshing starts, so the meshing time does not stretch it.
+            next_mesh = (next_mesh + period).max(now);
             dirty_chunks.clear();
             cutter.take_dirty(&mut dirty_chunks);
+            for (t, _) in &dirty_chunks {
+                if let Some(d) = dirty.get_mut(*t) {
+                    *d = true;
+                }
+            }
             if let Some(m) = &mut chunks {
                 if m.update(&mirror, &dirty_chunks).is_err() {
                     chunks = None;
@@ -499,13 +512,12 @@ fn mesher_loop(mut rx: rtrb::Consumer<StrokeMsg>, mut mirror: TissueModel, burr:
                     shared.meshes.lock().unwrap_or_else(|p| p.into_inner())[i] = Some(mesh);
                 }
             }
-            if let Some(at) = oldest.take() {
-                stats.latencies_ms.push(at.elapsed().as_secs_f64() * 1e3);
-            }
+            // Every stroke's latency, from its tick to this mesh.
+            let shown = Instant::now();
+            stats.latencies_ms.extend(waiting.drain(..).map(|at| (shown - at).as_secs_f64() * 1e3));
             stats.published += 1;
-            last_mesh = Instant::now();
         }
-        if done && rx.is_empty() && !dirty.iter().any(|d| *d) {
+        if done && rx.is_empty() && waiting.is_empty() {
             return stats;
         }
         std::thread::sleep(Duration::from_millis(1));

@@ -1,4 +1,7 @@
 //! Session-side cutting: undo/redo, incremental meshing, removal rate, bad poses.
+mod common;
+
+use common::triangle_set;
 use dentsim_sim::burr::{Burr, Shape};
 use dentsim_sim::cut::Cutter;
 use dentsim_sim::mesher::Mesher;
@@ -6,7 +9,6 @@ use dentsim_sim::model::TissueModel;
 use dentsim_sim::phantom::CapsuleTooth;
 use dentsim_sim::removal::Feed;
 use dentsim_sim::tissue::TissueTable;
-use dentsim_vdb::TriMesh;
 use glam::{DAffine3, DMat3, DQuat, DVec3, IVec3};
 
 fn tooth(voxel: f64) -> TissueModel {
@@ -75,21 +77,6 @@ fn history_memory_is_bounded_and_drops_the_oldest() {
     assert!(cutter.history.undo_depth() < 12, "older strokes were dropped");
     assert!(cutter.history.undo_depth() > 0);
     while cutter.undo(&mut model) {}
-}
-
-/// Triangles as sorted, rotation-normalised vertex triples (bit patterns), for set comparison.
-fn triangle_set(m: &TriMesh) -> Vec<[[u32; 3]; 3]> {
-    let mut out: Vec<[[u32; 3]; 3]> = m
-        .triangles
-        .iter()
-        .map(|t| {
-            let v = t.map(|i| m.points[i as usize].to_array().map(f32::to_bits));
-            let k = (0..3).min_by_key(|&k| v[k]).unwrap();
-            [v[k], v[(k + 1) % 3], v[(k + 2) % 3]]
-        })
-        .collect();
-    out.sort_unstable();
-    out
 }
 
 #[test]

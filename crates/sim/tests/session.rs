@@ -1,6 +1,10 @@
 //! Headless sessions: the simulated hand cuts through enamel into dentin; replay is bit-exact.
+mod common;
+
+use common::triangle_set;
 use dentsim_devices::{HandParams, ScriptedPath, SimulatedHand};
 use dentsim_sim::log::SessionLog;
+use dentsim_sim::mesher::Mesher;
 use dentsim_sim::model::TissueModel;
 use dentsim_sim::phantom::CapsuleTooth;
 use dentsim_sim::replay::{replay, write_force_csv};
@@ -55,6 +59,14 @@ fn simulated_hand_cuts_through_enamel_into_dentin() {
     assert_eq!((out.dropped_records, out.dropped_strokes), (0, 0));
     assert!(out.meshes_published > 0);
     assert_eq!(log.records.len() as u64, out.ticks);
+    // The removed volume is what the grids lost, and the mesher (its own mirror grids, cut by
+    // the strokes it was sent) last showed exactly the final geometry.
+    assert!((removed("enamel") - (enamel0 - out.model.tissues[0].grid.volume())).abs() < 1e-9);
+    let full = Mesher::full(&out.model).unwrap();
+    for (t, shown) in out.final_meshes.iter().enumerate().take(2) {
+        let shown = shown.as_ref().unwrap_or_else(|| panic!("no mesh published for tissue {t}"));
+        assert!(triangle_set(shown) == triangle_set(&full.mesh(t)), "tissue {t}: the mesher's last mesh is not the final geometry");
+    }
 }
 
 #[test]

@@ -1,10 +1,11 @@
-//! Helpers shared by the haptics tests: one-tissue models from analytic SDFs and a device driver.
+//! Helpers shared by the haptics and cutting tests: one-tissue models from analytic SDFs, a device
+//! driver, mesh comparison.
 #![allow(dead_code)]
 use dentsim_devices::DeviceState;
 use dentsim_sim::haptics::{HapticCore, TickOutput};
 use dentsim_sim::model::TissueModel;
 use dentsim_sim::tissue::TissueTable;
-use dentsim_vdb::LevelSet;
+use dentsim_vdb::{LevelSet, TriMesh};
 use glam::{DAffine3, DVec3};
 
 pub const VOXEL: f64 = 0.05;
@@ -49,5 +50,20 @@ pub fn drive(core: &mut HapticCore, model: &mut TissueModel, from: DVec3, to: DV
     for _ in 0..hold {
         out.push(core.tick(model, &touch(to), false).unwrap());
     }
+    out
+}
+
+/// Triangles as sorted, rotation-normalised vertex triples (bit patterns), for set comparison.
+pub fn triangle_set(m: &TriMesh) -> Vec<[[u32; 3]; 3]> {
+    let mut out: Vec<[[u32; 3]; 3]> = m
+        .triangles
+        .iter()
+        .map(|t| {
+            let v = t.map(|i| m.points[i as usize].to_array().map(f32::to_bits));
+            let k = (0..3).min_by_key(|&k| v[k]).unwrap();
+            [v[k], v[(k + 1) % 3], v[(k + 2) % 3]]
+        })
+        .collect();
+    out.sort_unstable();
     out
 }
