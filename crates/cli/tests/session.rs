@@ -89,6 +89,7 @@ fn scripted_session_writes_everything_and_replay_is_bit_exact() {
     let replayed = json(&again.join("replay.json"));
     assert_eq!(replayed["hashes_match_session"], true);
     assert_eq!(replayed["max_force_difference_n"], 0.0);
+    assert_eq!(replayed["ticks_cut_differently"], 0);
     for t in summary["tissues"].as_array().unwrap() {
         let name = t["name"].as_str().unwrap();
         assert_eq!(tissue(&replayed, name)["content_hash"], t["content_hash"], "{name}");

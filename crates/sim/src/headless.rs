@@ -80,6 +80,8 @@ pub struct ReplaySummary {
     pub ticks: u64,
     /// Largest difference between logged and replayed force (N); 0 for a faithful replay.
     pub max_force_difference_n: f64,
+    /// Ticks whose replayed cut changed another number of voxels than logged; 0 for a faithful replay.
+    pub ticks_cut_differently: u64,
     /// Bytes of a partial last record the log reader dropped (a crash while writing).
     pub truncated_log_bytes: usize,
     /// True/false when the session's `summary.json` sat beside the log; `None` otherwise.
@@ -237,6 +239,7 @@ pub fn replay_to_dir(log_path: &Path, tissues: &Path, out: &Path, progress: &mut
         log: log_path.display().to_string(),
         ticks: log.records.len() as u64,
         max_force_difference_n: again.max_force_difference_n,
+        ticks_cut_differently: again.ticks_cut_differently,
         truncated_log_bytes: log.truncated_bytes,
         hashes_match_session,
         tissues: tissues_out,

@@ -19,6 +19,8 @@ pub struct ForceSample {
     pub force: DVec3,
     /// Tissue index in contact, −1 for none.
     pub tissue: i32,
+    /// Volume the replayed tick removed (mm³, all tissues): live ticks do not measure it.
+    pub removed_mm3: f64,
 }
 
 pub struct ReplayOutcome {
@@ -27,6 +29,8 @@ pub struct ReplayOutcome {
     pub forces: Vec<ForceSample>,
     /// Largest difference between the logged force and the replay's (N); 0 for a faithful replay.
     pub max_force_difference_n: f64,
+    /// Ticks whose replayed cut changed another number of voxels than logged; 0 for a faithful replay.
+    pub ticks_cut_differently: u64,
     pub removed_mm3: Vec<(String, f64)>,
 }
 
@@ -53,6 +57,7 @@ pub fn replay_with_progress(log: &SessionLog, mut model: TissueModel, progress: 
     // As the session did, so the trees (not only the values) come out the same.
     core.prepare_cutting(&mut model)?;
     let mut max_diff = 0.0f64;
+    let mut cut_differently = 0u64;
     let mut forces = Vec::with_capacity(log.records.len());
     let total = log.records.len().max(1) as f64;
     for (i, r) in log.records.iter().enumerate() {
@@ -62,24 +67,26 @@ pub fn replay_with_progress(log: &SessionLog, mut model: TissueModel, progress: 
         let state = DeviceState { pose: r.pose, buttons: r.buttons, rpm: r.rpm };
         let out = core.tick(&mut model, &state, r.flags & FLAG_MISSED != 0)?;
         max_diff = max_diff.max((out.force - r.force).length());
-        forces.push(ForceSample { t_s: r.t_s, force: r.force, tissue: r.tissue });
+        cut_differently += u64::from(out.changed_voxels != r.changed_voxels);
+        forces.push(ForceSample { t_s: r.t_s, force: r.force, tissue: r.tissue, removed_mm3: out.removed_mm3 });
     }
     model.compact();
     let removed_mm3 = names.into_iter().zip(core.removed_mm3.iter().copied()).collect();
-    Ok(ReplayOutcome { model, forces, max_force_difference_n: max_diff, removed_mm3 })
+    Ok(ReplayOutcome { model, forces, max_force_difference_n: max_diff, ticks_cut_differently: cut_differently, removed_mm3 })
 }
 
-/// `t_s,fx,fy,fz,f,tissue` with the tissue by name (empty for none); written via a temporary name.
+/// `t_s,fx_n,fy_n,fz_n,f_n,removed_mm3,tissue` with the tissue by name (empty for none); written
+/// via a temporary name.
 pub fn write_force_csv(path: &Path, forces: &[ForceSample], tissues: &[String]) -> Result<()> {
     let err = |e: std::io::Error| Error::File { path: path.to_owned(), message: e.to_string() };
     let tmp = path.with_extension("csv.tmp");
     {
         let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp).map_err(err)?);
-        writeln!(w, "t_s,fx_n,fy_n,fz_n,f_n,tissue").map_err(err)?;
+        writeln!(w, "t_s,fx_n,fy_n,fz_n,f_n,removed_mm3,tissue").map_err(err)?;
         for s in forces {
             let name = usize::try_from(s.tissue).ok().and_then(|i| tissues.get(i)).map_or("", String::as_str);
             let f = s.force;
-            writeln!(w, "{},{},{},{},{},{}", s.t_s, f.x, f.y, f.z, f.length(), name).map_err(err)?;
+            writeln!(w, "{},{},{},{},{},{},{}", s.t_s, f.x, f.y, f.z, f.length(), s.removed_mm3, name).map_err(err)?;
         }
         w.flush().map_err(err)?;
     }

@@ -95,6 +95,11 @@ fn replay_reproduces_the_session_bit_for_bit() {
     // At enamel's removal rate: 0.5 mm³/(N·s) × a few tenths of a newton × ~0.5 s in contact.
     assert!(again.removed_mm3.iter().map(|(_, v)| v).sum::<f64>() > 0.02);
     assert_eq!(again.max_force_difference_n, 0.0);
+    assert_eq!(again.ticks_cut_differently, 0);
+    // The replay measures each tick's cut; together they are what the session's grids lost.
+    let per_tick: f64 = again.forces.iter().map(|f| f.removed_mm3).sum();
+    let total: f64 = again.removed_mm3.iter().map(|(_, v)| v).sum();
+    assert!((per_tick - total).abs() < 1e-9 * total.max(1.0), "{per_tick} vs {total}");
     let names: Vec<String> = again.model.tissues.iter().map(|t| t.props.name.clone()).collect();
     let colours: Vec<[f32; 3]> = again.model.tissues.iter().map(|t| t.props.colour).collect();
     write_force_csv(&dir.path().join("forces.csv"), &again.forces, &names).unwrap();
