@@ -326,8 +326,13 @@ pub fn force_query(tooth: &BenchTooth, points: usize, iterations: usize) -> Resu
     Ok(BenchRow::new("force_query", &Timings(ours), "parry3d TriMesh project_point", &Timings(peer)))
 }
 
+/// Sessions pooled in the loop_period and cut_to_visible rows.
+pub const LOOP_RUNS: usize = 3;
+
 /// A real-time session (1 kHz, raised priority where permitted) with a scripted device cutting
-/// down into the tooth while the mesher runs at 30 Hz: tick periods and cut → visible latency.
+/// down into the tooth while the mesher runs at 30 Hz: tick periods and cut → visible latency,
+/// pooled over [`LOOP_RUNS`] sessions on fresh copies of the tooth (the same path each time: the
+/// p99.9 of one 3 s run is its third-worst period, at the mercy of a single hiccup of the machine).
 /// No peer runs these; the rows carry the issue's goals instead.
 pub fn loop_period(tooth: &BenchTooth, seconds: f64) -> Result<Vec<BenchRow>> {
     let (a, b) = (tooth.occlusal + DVec3::new(0.0, 0.0, 0.6), tooth.occlusal + DVec3::new(0.3, 0.0, -1.0));
@@ -337,10 +342,14 @@ pub fn loop_period(tooth: &BenchTooth, seconds: f64) -> Result<Vec<BenchRow>> {
     );
     let model = &tooth.model;
     let path = ScriptedPath::parse(&csv, "bench path").map_err(|e| crate::error::invalid("bench path", e.to_string()))?;
-    let options = SessionOptions { realtime: true, mesher_hz: Some(30.0), log_path: None, ..Default::default() };
-    let out = run_session(model.clone(), path, options)?;
-    let periods = Timings(out.periods_us.clone());
-    let latency = Timings(out.cut_to_visible_ms.iter().map(|m| m * 1e3).collect());
+    let (mut periods, mut latency) = (Vec::new(), Vec::new());
+    for _ in 0..LOOP_RUNS {
+        let options = SessionOptions { realtime: true, mesher_hz: Some(30.0), log_path: None, ..Default::default() };
+        let out = run_session(model.clone(), path.clone(), options)?;
+        periods.extend_from_slice(&out.periods_us);
+        latency.extend(out.cut_to_visible_ms.iter().map(|m| m * 1e3));
+    }
+    let (periods, latency) = (Timings(periods), Timings(latency));
     Ok(vec![
         BenchRow::without_peer("loop_period", &periods, "goal: p99.9 <= 1100 us"),
         BenchRow::without_peer("cut_to_visible", &latency, "no goal in the issue; per stroke, mesher at 30 Hz (33 ms period)"),
