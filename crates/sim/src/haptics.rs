@@ -194,8 +194,8 @@ impl HapticCore {
         self.proxy.position
     }
 
-    /// One tick. `missed_deadline` feeds the watchdog. Touch mode never allocates; cut mode calls
-    /// [`Cutter::cut`], whose report allocates (see the session notes).
+    /// One tick. `missed_deadline` feeds the watchdog. Allocation-free, in cut mode once
+    /// [`prepare_cutting`](Self::prepare_cutting) has run.
     pub fn tick(&mut self, model: &mut TissueModel, state: &DeviceState, missed_deadline: bool) -> Result<TickOutput> {
         self.ticks += 1;
         let dt = self.params.period_s;

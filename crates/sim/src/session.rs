@@ -3,8 +3,9 @@
 //! - haptic (1 kHz, raised priority where permitted): owns the [`TissueModel`] while the session
 //!   runs; each tick polls the device, runs [`HapticCore::tick`] (proxy, force, cut), sends the
 //!   force and pushes a [`TickRecord`] to the logger and each stroke it cut to the mesher. No lock,
-//!   no I/O; touch-mode ticks allocate nothing (tests/no_alloc.rs), cut ticks allocate inside
-//!   `Cutter::cut`'s report and OpenVDB's leaf creation (see the notes on issue 5).
+//!   no I/O, no allocation (tests/no_alloc.rs): before the first tick the grids' insides become
+//!   leaves and every cut buffer is grown ([`HapticCore::prepare_cutting`]); cuts skip measuring
+//!   removed volume, which follows from the grids at the end.
 //! - mesher (≤ `mesher_hz`): keeps mirror grids (a deep copy taken at the start) and applies the
 //!   same strokes to them, so it never reads the grids the haptic thread writes; then re-meshes
 //!   the tissues a stroke touched and publishes them. Strokes are deterministic, so the mirror
