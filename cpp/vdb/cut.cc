@@ -250,6 +250,12 @@ rust::Slice<const VoxelChange> LevelSet::last_changes() const {
   return {impl->scratch_log.data(), impl->log_count};
 }
 
+void LevelSet::last_new_values(rust::Slice<VoxelChange> out) const {
+  // Pass 1 keeps each changed voxel's new value beside its log entry, in the same order.
+  const size_t n = std::min(out.size(), impl->log_count);
+  for (size_t i = 0; i < n; ++i) out[i].value = impl->scratch_changed[i].now;
+}
+
 // Dry run for rate-limited cutting: the volume each offset would remove (smoothed Heaviside only;
 // the curvature term is a boundary correction too small to matter for a per-tick budget).
 void LevelSet::removal_by_offset(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,

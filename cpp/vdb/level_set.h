@@ -81,6 +81,9 @@ public:
                            float offset, bool measured);
   // The voxels the last subtract_logged changed, with their old values (valid until the next cut).
   rust::Slice<const VoxelChange> last_changes() const;
+  // Sets each entry's value to the new value of the voxel the last logged cut changed at the
+  // same position in last_changes (the first out.size() of them).
+  void last_new_values(rust::Slice<VoxelChange> out) const;
   // Grows the cut's working buffers for patches up to dims, so those cuts allocate nothing.
   void reserve_cut(std::array<uint32_t, 3> dims);
   void removal_by_offset(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,

@@ -165,7 +165,7 @@ pub fn phantom_stroke(params: &StrokeParams) -> Result<Vec<TissueSurface>, Strin
             end_mm: params.end_mm,
         };
         let outcome = stroke.run(&TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
-        Ok(cut_surfaces(&outcome.model, &outcome.tissues))
+        cut_surfaces(&outcome.model, &outcome.tissues)
     })
 }
 
@@ -174,7 +174,7 @@ pub fn read_tissues(path: &str) -> Result<Vec<TissueSurface>, String> {
     guarded("read tissues", || {
         let model = dentsim_sim::model::TissueModel::load(std::path::Path::new(path), &TissueTable::default())
             .map_err(|e| e.to_string())?;
-        Ok(unchanged_surfaces(&model))
+        unchanged_surfaces(&model)
     })
 }
 
@@ -200,7 +200,7 @@ pub fn segment_image(geometry: &ImageGeometry, values: &[f32], params: &SegmentP
             ..Default::default()
         };
         let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
-        Ok(unchanged_surfaces(&model))
+        unchanged_surfaces(&model)
     })
 }
 
@@ -231,12 +231,12 @@ pub fn prepare_tissues(
             force_n: params.force_n,
         };
         let prepared = request.run(&TissueTable::default()).map_err(|e| e.to_string())?;
-        Ok(cut_surfaces(&prepared.model, &prepared.tissues))
+        cut_surfaces(&prepared.model, &prepared.tissues)
     })
 }
 
 /// Surfaces of a cut model with each tissue's volume figures.
-fn cut_surfaces(model: &dentsim_sim::model::TissueModel, outcomes: &[dentsim_sim::preparation::TissueOutcome]) -> Vec<TissueSurface> {
+fn cut_surfaces(model: &dentsim_sim::model::TissueModel, outcomes: &[dentsim_sim::preparation::TissueOutcome]) -> Result<Vec<TissueSurface>, String> {
     model
         .tissues
         .iter()
@@ -246,7 +246,7 @@ fn cut_surfaces(model: &dentsim_sim::model::TissueModel, outcomes: &[dentsim_sim
 }
 
 /// Surfaces of a model nothing has cut yet.
-fn unchanged_surfaces(model: &dentsim_sim::model::TissueModel) -> Vec<TissueSurface> {
+fn unchanged_surfaces(model: &dentsim_sim::model::TissueModel) -> Result<Vec<TissueSurface>, String> {
     model
         .tissues
         .iter()
@@ -258,8 +258,9 @@ fn unchanged_surfaces(model: &dentsim_sim::model::TissueModel) -> Vec<TissueSurf
 }
 
 /// A tissue's mesh and properties with the volumes the caller measured.
-fn surface(t: &Tissue, volume_before_mm3: f64, volume_after_mm3: f64, removed_mm3: f64) -> TissueSurface {
-    mesh_surface(&t.props, &t.grid.to_mesh(), volume_before_mm3, volume_after_mm3, removed_mm3)
+fn surface(t: &Tissue, volume_before_mm3: f64, volume_after_mm3: f64, removed_mm3: f64) -> Result<TissueSurface, String> {
+    let mesh = dentsim_sim::mesher::surface(&t.grid).map_err(|e| e.to_string())?;
+    Ok(mesh_surface(&t.props, &mesh, volume_before_mm3, volume_after_mm3, removed_mm3))
 }
 
 fn mesh_surface(p: &TissueProps, mesh: &TriMesh, volume_before_mm3: f64, volume_after_mm3: f64, removed_mm3: f64) -> TissueSurface {

@@ -3,8 +3,9 @@
 //! Per tick: the swept head becomes a dense patch of signed distances ([`Sweep`]), and every
 //! tissue takes `max(value, -(tool + offset))` over it in place (`LevelSet::subtract_logged`),
 //! with offset 0 for geometric cuts and a partial depth when a removal rate limits the tick
-//! ([`crate::removal`]). The changed voxels' old values feed the undo journal ([`History`]) and
-//! the dirty-chunk set the mesher drains ([`DirtyLeaves`]). Once its buffers have grown to the
+//! ([`crate::removal`]). The changed voxels' old values feed the undo journal ([`History`]); by
+//! [`Handoff`], either the dirty-chunk set a mesher drains ([`DirtyLeaves`]) or each tissue's
+//! changed voxels with their new values, which a session hands to its mesher's copy of the grids. Once its buffers have grown to the
 //! largest stroke, [`Cutter::cut_with`] allocates nothing.
 //!
 //! A round burr's stroke ends in a ball every grid has lost. While no one else edits the grids
@@ -60,6 +61,18 @@ impl StrokeReport {
     }
 }
 
+/// What a cutter keeps of each cut besides the undo journal.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Handoff {
+    /// The mesh chunks the cuts dirtied, until [`Cutter::take_dirty`] (planning, undo).
+    #[default]
+    DirtyChunks,
+    /// The last cut's changed voxels with their new values per tissue ([`Cutter::last_changes`]),
+    /// for a thread that keeps a copy of the grids and tracks its own chunks (a session's mesher):
+    /// it writes them instead of cutting again.
+    NewValues,
+}
+
 /// Reuses its buffers from stroke to stroke; owns the undo journal and the dirty set.
 #[derive(Default)]
 pub struct Cutter {
@@ -71,8 +84,13 @@ pub struct Cutter {
     pub dirty: DirtyLeaves,
     /// The ball the last stroke ended in and the grids' stamps it left (see the module notes).
     done: Option<CutBall>,
+    /// The done ball the last stroke skipped (its cut depends on it, to [`crate::sweep`]'s slack).
+    skipped: Option<CutBall>,
     done_stamps: Vec<u64>,
     measure: Measure,
+    handoff: Handoff,
+    /// [`Handoff::NewValues`]: each tissue's voxels the last cut changed, with their new values.
+    changes: Vec<Vec<VoxelChange>>,
 }
 
 impl Cutter {
@@ -88,6 +106,17 @@ impl Cutter {
         self.measure = measure;
     }
 
+    /// What each cut leaves for others (see [`Handoff`]).
+    pub fn set_handoff(&mut self, handoff: Handoff) {
+        self.handoff = handoff;
+    }
+
+    /// [`Handoff::NewValues`]: the voxels the last cut changed in `tissue`, with their new values
+    /// (empty for a tissue it left alone).
+    pub fn last_changes(&self, tissue: usize) -> &[VoxelChange] {
+        self.changes.get(tissue).map_or(&[], |c| c.as_slice())
+    }
+
     /// Grows every buffer (the cutter's and the grids') for strokes of `burr` whose head moves at
     /// most `travel_mm`, so that such strokes allocate nothing: for the haptic thread, whose
     /// strokes are bounded by the proxy's step.
@@ -100,6 +129,12 @@ impl Cutter {
         for t in &mut model.tissues {
             t.grid.reserve_cut(dims);
         }
+        if self.handoff == Handoff::NewValues {
+            self.changes.resize_with(model.tissues.len(), Vec::new);
+            for c in &mut self.changes {
+                c.reserve(voxels.saturating_sub(c.len()));
+            }
+        }
         self.report.reset_for(model);
     }
 
@@ -111,11 +146,32 @@ impl Cutter {
 
     /// The haptic tick: like [`cut`](Self::cut) under a [`Feed`], returning a borrowed report.
     pub fn cut_with(&mut self, model: &mut TissueModel, burr: &Burr, from: DAffine3, to: DAffine3, feed: Feed) -> Result<&StrokeReport> {
+        let done = self.done.take().filter(|_| self.grids_as_left(model));
+        self.cut_skipping(model, burr, from, to, feed, done)
+    }
+
+    /// Cuts again, on a copy of the grids, a stroke another cutter made: `skipped` is what that
+    /// cutter's [`last_skipped`](Self::last_skipped) said, so the copy changes bit for bit as the
+    /// original did.
+    pub fn recut(&mut self, model: &mut TissueModel, burr: &Burr, from: DAffine3, to: DAffine3, skipped: Option<CutBall>) -> Result<&StrokeReport> {
+        self.cut_skipping(model, burr, from, to, Feed::Geometric, skipped)
+    }
+
+    /// The done ball the last cut skipped (see [`recut`](Self::recut)).
+    pub fn last_skipped(&self) -> Option<CutBall> {
+        self.skipped
+    }
+
+    fn cut_skipping(&mut self, model: &mut TissueModel, burr: &Burr, from: DAffine3, to: DAffine3, feed: Feed, done: Option<CutBall>) -> Result<&StrokeReport> {
         feed.validate()?;
         self.report.reset_for(model);
+        if self.handoff == Handoff::NewValues && self.changes.len() != model.tissues.len() {
+            self.changes.resize_with(model.tissues.len(), Vec::new);
+        }
+        self.changes.iter_mut().for_each(Vec::clear);
         let Some(h) = model.voxel_size() else { return Ok(&self.report) };
         let band = model.tissues.iter().map(|t| f64::from(t.grid.background())).fold(0.0, f64::max);
-        let done = self.done.take().filter(|_| self.grids_as_left(model));
+        self.skipped = done;
         self.sweep.build(burr, from, to, h, band, done)?;
         self.report.substeps = self.sweep.substeps;
         let auto_stroke = !self.history.is_open();
@@ -177,7 +233,14 @@ impl Cutter {
             if let Some(b) = budget {
                 self.bank.spend(t, stats.removed_mm3, b);
             }
-            self.dirty.record(t, &self.log);
+            match self.handoff {
+                Handoff::DirtyChunks => self.dirty.record(t, &self.log),
+                Handoff::NewValues => {
+                    let changes = &mut self.changes[t];
+                    changes.reserve(self.log.len());
+                    tissue.grid.last_cut_values(changes);
+                }
+            }
             self.history.record(t, &self.log);
             self.report.removed_mm3[t].1 = stats.removed_mm3;
             self.report.changed_voxels += stats.changed_voxels;

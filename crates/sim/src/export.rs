@@ -16,7 +16,7 @@ pub fn write_model(model: &mut TissueModel, out: &Path, progress: &mut dyn FnMut
     let n = model.tissues.len();
     for (i, t) in model.tissues.iter().enumerate() {
         progress(&format!("meshing {}", t.props.name), i as f64 / n as f64);
-        let mesh = t.grid.to_mesh();
+        let mesh = crate::mesher::surface(&t.grid)?;
         write_vtp(&out.join(format!("{}.vtp", t.props.name)), &mesh, &t.props)?;
         write_stl(&out.join(format!("{}.stl", t.props.name)), &mesh)?;
         triangles.push((t.props.name.clone(), mesh.triangles.len()));

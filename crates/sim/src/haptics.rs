@@ -2,13 +2,14 @@
 //! contact force → removal budget → cut → filter, watchdog and clamp → force for the device.
 //! The session thread calls it at 1 kHz; replay calls it again on the logged device states.
 use dentsim_devices::{DeviceProfile, DeviceState};
-use dentsim_vdb::Measure;
+use dentsim_vdb::{Measure, VoxelChange};
 use glam::{DAffine3, DVec3};
 use serde::{Deserialize, Serialize};
 
 use crate::burr::Burr;
 use crate::contact::{BurrSamples, ContactQuery};
-use crate::cut::Cutter;
+use crate::cut::{Cutter, Handoff};
+use crate::sweep::CutBall;
 use crate::removal::Feed;
 use crate::error::{invalid, Result};
 use crate::filter::{clamp_length, FilterSpec, ForceFilter};
@@ -176,6 +177,22 @@ impl HapticCore {
     /// Whether cuts measure the volume they remove (the default; see [`Cutter::set_measure`]).
     pub fn set_measure(&mut self, measure: Measure) {
         self.cutter.set_measure(measure);
+    }
+
+    /// What the core's cuts leave for others (see [`Handoff`]); a session hands its mesher the
+    /// changed voxels.
+    pub fn set_handoff(&mut self, handoff: Handoff) {
+        self.cutter.set_handoff(handoff);
+    }
+
+    /// [`Handoff::NewValues`]: the voxels this tick's cut changed in `tissue`, with their new values.
+    pub fn last_changes(&self, tissue: usize) -> &[VoxelChange] {
+        self.cutter.last_changes(tissue)
+    }
+
+    /// The done ball this tick's cut skipped (for [`Cutter::recut`]).
+    pub fn last_skipped(&self) -> Option<CutBall> {
+        self.cutter.last_skipped()
     }
 
     pub fn burr(&self) -> &Burr {

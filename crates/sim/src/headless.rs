@@ -159,6 +159,7 @@ pub fn run_session_to_dir(req: &SessionRequest, progress: &mut dyn FnMut(&str, f
         log_path: Some(tmp_log.clone()),
         mesher_hz: None,
         raise_priority: req.realtime,
+        ..SessionOptions::default()
     };
     let run = || -> Result<_> {
         let session = Session::start(model, device, options)?;

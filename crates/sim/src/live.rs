@@ -17,6 +17,7 @@ use crate::error::{invalid, Result};
 use crate::filter::FilterSpec;
 use crate::haptics::HapticParams;
 use crate::log::TickRecord;
+use crate::mesher::surface;
 use crate::model::TissueModel;
 use crate::phantom::CapsuleTooth;
 use crate::session::{Session, SessionOptions};
@@ -86,7 +87,7 @@ impl LiveSession {
         let params = HapticParams { profile, filter, ..HapticParams::default() };
         let burr_mesh = burr_mesh(&Burr::round(params.burr_diameter_mm)?)?;
         let props = model.tissues.iter().map(|t| t.props.clone()).collect();
-        let meshes: Vec<Arc<TriMesh>> = model.tissues.iter().map(|t| Arc::new(t.grid.to_mesh())).collect();
+        let meshes = model.tissues.iter().map(|t| surface(&t.grid).map(Arc::new)).collect::<Result<Vec<_>>>()?;
         let initial_volumes = meshes.iter().map(|m| m.volume()).collect();
         let options = SessionOptions {
             params,
@@ -95,6 +96,7 @@ impl LiveSession {
             log_path: None,
             mesher_hz: Some(req.mesher_hz),
             raise_priority: req.realtime,
+            ..SessionOptions::default()
         };
         let session = Session::start(model, device, options)?;
         Ok(LiveSession { session: Some(session), props, meshes, generation: 1, burr_mesh, last: None, initial_volumes })
@@ -120,7 +122,7 @@ impl LiveSession {
                 if outcome.last_record.is_some() {
                     self.last = outcome.last_record;
                 }
-                self.meshes = outcome.model.tissues.iter().map(|t| Arc::new(t.grid.to_mesh())).collect();
+                self.meshes = outcome.model.tissues.iter().map(|t| surface(&t.grid).map(Arc::new)).collect::<Result<Vec<_>>>()?;
                 self.generation += 1;
             }
         }
@@ -170,5 +172,5 @@ fn burr_mesh(burr: &Burr) -> Result<TriMesh> {
     let h = (r / 20.0).max(0.01);
     let pad = DVec3::splat(4.0 * h);
     let grid = LevelSet::from_sdf(h, 3.0, DVec3::new(-r, -r, -r) - pad, DVec3::new(r, r, 2.0 * r) + pad, |p| burr.sdf(p))?;
-    Ok(grid.to_mesh())
+    surface(&grid)
 }

@@ -8,11 +8,17 @@
 //! its triangles depend only on the values from its origin −1 to origin +8, read in one call, and
 //! every cell vertex is computed from its own eight corners alone, so a chunk re-meshed after a cut
 //! is bit-identical to the same chunk in a full re-mesh.
-use std::collections::BTreeMap;
+//!
+//! This is the one mesher: live frames ([`Mesher::mesh`], chunks side by side, seam vertices
+//! repeated) and every finished surface ([`surface`], [`Mesher::surface`]: the same triangles with
+//! each cell's vertex shared, so the surface is closed) come from it.
+use std::collections::{BTreeMap, HashMap};
+use std::hash::BuildHasherDefault;
 
 use dentsim_vdb::{LevelSet, TriMesh, LEAF_DIM};
 use glam::{IVec3, Vec3};
 
+use crate::dirty::LeafHasher;
 use crate::error::Result;
 use crate::model::TissueModel;
 
@@ -24,6 +30,8 @@ pub struct ChunkMesh {
     pub points: Vec<Vec3>,
     pub normals: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
+    /// Each vertex's cell (voxel index of its lower corner): the key that joins chunks' seams.
+    pub cells: Vec<IVec3>,
 }
 
 /// Chunk meshes of every tissue, keyed by leaf origin.
@@ -74,7 +82,34 @@ impl Mesher {
         self.tissues.get(tissue).map_or(0, |c| c.len())
     }
 
-    /// One tissue's surface, chunks concatenated in origin order.
+    /// One tissue's surface, closed: [`mesh`](Self::mesh)'s triangles with the vertices the
+    /// chunks repeat along their seams joined.
+    pub fn surface(&self, tissue: usize) -> TriMesh {
+        let chunks = self.tissues.get(tissue);
+        let mut out = TriMesh::default();
+        // Only a vertex of a cell on a chunk's faces can be repeated in another chunk.
+        let mut seams: HashMap<IVec3, u32, BuildHasherDefault<LeafHasher>> = HashMap::default();
+        let mut index = Vec::new();
+        for ((x, y, z), c) in chunks.into_iter().flat_map(|m| m.iter()) {
+            let origin = IVec3::new(*x, *y, *z);
+            index.clear();
+            for (k, cell) in c.cells.iter().enumerate() {
+                let local = *cell - origin;
+                let on_seam = local.min_element() < 0 || local.max_element() >= LEAF_DIM - 1;
+                let next = out.points.len() as u32;
+                let at = if on_seam { *seams.entry(*cell).or_insert(next) } else { next };
+                if at == next {
+                    out.points.push(c.points[k]);
+                    out.normals.push(c.normals[k]);
+                }
+                index.push(at);
+            }
+            out.triangles.extend(c.triangles.iter().map(|t| t.map(|i| index[i as usize])));
+        }
+        out
+    }
+
+    /// One tissue's surface, chunks concatenated in origin order (a live frame: no joining).
     pub fn mesh(&self, tissue: usize) -> TriMesh {
         let mut out = TriMesh::default();
         for c in self.tissues.get(tissue).into_iter().flat_map(|m| m.values()) {
@@ -85,6 +120,19 @@ impl Mesher {
         }
         out
     }
+}
+
+/// A grid's closed surface: every leaf meshed, seams joined (see [`Mesher::surface`]).
+pub fn surface(grid: &LevelSet) -> Result<TriMesh> {
+    let mut values = vec![0.0; N * N * N];
+    let mut chunks = BTreeMap::new();
+    for origin in grid.leaf_origins() {
+        let c = mesh_chunk(grid, origin, &mut values)?;
+        if !c.triangles.is_empty() {
+            chunks.insert(origin.into(), c);
+        }
+    }
+    Ok(Mesher { tissues: vec![chunks], values }.surface(0))
 }
 
 /// The triangles of the chunk whose leaf starts at `origin`.
@@ -135,6 +183,7 @@ pub fn mesh_chunk(grid: &LevelSet, origin: IVec3, values: &mut [f32]) -> Result<
         let p = (lo.as_vec3() + Vec3::new(x as f32, y as f32, z as f32) + f) * h;
         out.points.push(p);
         out.normals.push(Vec3::new(gx, gy, gz).normalize_or_zero());
+        out.cells.push(lo + IVec3::new(x as i32, y as i32, z as i32));
         cell[id] = (out.points.len() - 1) as u32;
         cell[id]
     };

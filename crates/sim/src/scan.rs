@@ -233,7 +233,7 @@ impl NestedBuilder<'_> {
         let Some(measure) = enclosed_volume(self.scan, self.labels, label, Label::Dentin, self.calibration) else {
             return Ok(None);
         };
-        let area = grid.to_mesh().area();
+        let area = crate::mesher::surface(&grid)?.area();
         if !area.is_finite() || area <= 0.0 {
             return Ok(None);
         }

@@ -2,14 +2,17 @@
 //!
 //! - haptic (1 kHz, raised priority where permitted): owns the [`TissueModel`] while the session
 //!   runs; each tick polls the device, runs [`HapticCore::tick`] (proxy, force, cut), sends the
-//!   force and pushes a [`TickRecord`] to the logger and each stroke it cut to the mesher. No lock,
-//!   no I/O, no allocation (tests/no_alloc.rs): before the first tick the grids' insides become
-//!   leaves and every cut buffer is grown ([`HapticCore::prepare_cutting`]); cuts skip measuring
-//!   removed volume, which follows from the grids at the end.
-//! - mesher (≤ `mesher_hz`): keeps mirror grids (a deep copy taken at the start) and applies the
-//!   same strokes to them, so it never reads the grids the haptic thread writes; then re-meshes
-//!   the tissues a stroke touched and publishes them. Strokes are deterministic, so the mirror
-//!   equals the haptic model up to the strokes still queued.
+//!   force and pushes a [`TickRecord`] to the logger and what each cut changed to the mesher. No
+//!   lock, no I/O, no allocation (tests/no_alloc.rs): before the first tick the grids' insides
+//!   become leaves and every cut buffer is grown ([`HapticCore::prepare_cutting`]); cuts skip
+//!   measuring removed volume, which follows from the grids at the end.
+//! - mesher (frames at most `mesher_hz` apart, as soon as a cut arrives): keeps a copy of the grids
+//!   taken at the start and writes into it the voxels each cut changed, with their new values
+//!   (one queue per tissue), so it never reads the grids the haptic thread writes and nothing is
+//!   cut twice; then re-meshes the chunks those voxels dirtied and publishes the tissues' meshes.
+//!   Only when a cut's voxels do not fit the queues does the stroke itself go over, to be cut again
+//!   on the copy (strokes are deterministic, so the copy still equals the haptic model up to what
+//!   is queued).
 //! - logger: drains records to the binary log, flushing at least every 10 ms, and keeps the
 //!   latest record for displays (the plugin's live source).
 use std::fs::File;
@@ -21,16 +24,19 @@ use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
 use dentsim_devices::{Device, DeviceState};
-use dentsim_vdb::{Measure, TriMesh};
+use dentsim_vdb::{Measure, TriMesh, VoxelChange};
 use glam::{DAffine3, DVec3};
 
 use crate::burr::Burr;
-use crate::cut::Cutter;
+use crate::cut::{Cutter, Handoff};
+use crate::dirty::DirtyLeaves;
+use crate::force::MAX_TISSUES;
 use crate::error::{invalid, Error, Result};
 use crate::haptics::{HapticCore, HapticParams};
 use crate::log::{write_header, write_record, LogHeader, TickRecord, FLAG_CUT, FLAG_DEVICE_FAULT, FLAG_MISSED};
 use crate::mesher::Mesher;
 use crate::model::TissueModel;
+use crate::sweep::CutBall;
 
 /// How a session runs.
 #[derive(Clone, Debug)]
@@ -43,10 +49,14 @@ pub struct SessionOptions {
     pub max_duration_s: f64,
     /// Where the binary log goes (written by the logger thread); `None` for no log.
     pub log_path: Option<PathBuf>,
-    /// Mesh rate; `None` runs no mesher.
+    /// Most mesh frames per second (a frame follows a cut at once when the last is this old);
+    /// `None` runs no mesher.
     pub mesher_hz: Option<f64>,
     /// Try SCHED_FIFO for the haptic thread (ignored where not permitted).
     pub raise_priority: bool,
+    /// Room for changed voxels in flight to the mesher, per tissue; a cut that does not fit goes
+    /// over as its stroke and is cut again on the mesher's copy.
+    pub mesher_queue_voxels: usize,
 }
 
 impl Default for SessionOptions {
@@ -56,8 +66,9 @@ impl Default for SessionOptions {
             realtime: true,
             max_duration_s: 600.0,
             log_path: None,
-            mesher_hz: Some(30.0),
+            mesher_hz: Some(DEFAULT_MESHER_HZ),
             raise_priority: true,
+            mesher_queue_voxels: QUEUE_CHANGES,
         }
     }
 }
@@ -72,6 +83,8 @@ pub struct SessionOutcome {
     /// Records or strokes the queues could not take (should be 0).
     pub dropped_records: u64,
     pub dropped_strokes: u64,
+    /// Cuts whose changed voxels did not fit the mesher's queues, so it cut them again.
+    pub strokes_recut: u64,
     /// Volume removed per tissue (mm³): the volume at the start minus the volume at the end.
     pub removed_mm3: Vec<(String, f64)>,
     /// Ticks spent in contact with each tissue.
@@ -91,12 +104,25 @@ pub struct SessionOutcome {
     pub last_record: Option<TickRecord>,
 }
 
-/// A stroke for the mesher's mirror.
+/// Default cap on mesh frames per second: a cut shows within one frame gap plus its meshing,
+/// inside the next 60 Hz display frame (`dentsim bench`'s `cut_to_visible`).
+pub const DEFAULT_MESHER_HZ: f64 = 120.0;
+
+/// A cut for the mesher: when it was made and how many changed voxels of each tissue follow in
+/// the change queues, or, when they did not fit there, the stroke to cut again.
 #[derive(Clone, Copy)]
 struct StrokeMsg {
+    at: Instant,
+    counts: [u32; MAX_TISSUES],
+    recut: Option<Recut>,
+}
+
+/// A stroke to cut again: its poses and the done ball its cut skipped.
+#[derive(Clone, Copy)]
+struct Recut {
     from: DAffine3,
     to: DAffine3,
-    at: Instant,
+    skipped: Option<CutBall>,
 }
 
 struct Shared {
@@ -112,6 +138,7 @@ struct HapticStats {
     faults: u64,
     dropped_records: u64,
     dropped_strokes: u64,
+    recut: u64,
     trips: u32,
 }
 
@@ -142,6 +169,8 @@ pub struct Session {
 
 const QUEUE_RECORDS: usize = 1 << 14;
 const QUEUE_STROKES: usize = 1 << 14;
+/// Changed voxels in flight to the mesher, per tissue (8 MiB): a hundred ticks of a typical cut.
+pub const QUEUE_CHANGES: usize = 1 << 19;
 
 impl Session {
     /// Starts the threads; the model moves into the haptic thread until [`Session::stop`].
@@ -164,6 +193,10 @@ impl Session {
         });
         let (mut rec_tx, rec_rx) = rtrb::RingBuffer::<TickRecord>::new(QUEUE_RECORDS);
         let (mut stroke_tx, stroke_rx) = rtrb::RingBuffer::<StrokeMsg>::new(QUEUE_STROKES);
+        let (mut change_tx, change_rx): (Vec<_>, Vec<_>) = match options.mesher_hz {
+            Some(_) => (0..names.len()).map(|_| rtrb::RingBuffer::<VoxelChange>::new(options.mesher_queue_voxels.max(1))).unzip(),
+            None => (Vec::new(), Vec::new()),
+        };
 
         // Logger: open the file before the clock starts so a bad path fails here.
         let writer = match &options.log_path {
@@ -187,6 +220,9 @@ impl Session {
         // Leaves for the whole interior and the cut buffers now, so the haptic thread's cuts
         // never allocate.
         let mut model = model;
+        if mirror.is_some() {
+            core.set_handoff(Handoff::NewValues);
+        }
         core.prepare_cutting(&mut model)?;
         // The haptic ticks skip measuring removed volume (half a cut's cost): it follows from the
         // volumes before and after, and the mesher's mirror and a replay measure every stroke.
@@ -205,7 +241,7 @@ impl Session {
                 Some(
                     std::thread::Builder::new()
                         .name("dentsim-mesher".into())
-                        .spawn(move || mesher_loop(stroke_rx, mirror, burr, hz, &s))
+                        .spawn(move || mesher_loop(stroke_rx, change_rx, mirror, burr, hz, &s))
                         .map_err(|e| invalid("mesher thread", e.to_string()))?,
                 )
             }
@@ -221,7 +257,8 @@ impl Session {
                 }
                 let mut model = model;
                 let mut core = core;
-                let r = haptic_loop(&mut core, &mut model, &mut device, &options, &mut rec_tx, &mut stroke_tx, &s);
+                let mut mesher = MesherQueues { strokes: &mut stroke_tx, changes: &mut change_tx };
+                let r = haptic_loop(&mut core, &mut model, &mut device, &options, &mut rec_tx, &mut mesher, &s);
                 device.send_force(DVec3::ZERO, DVec3::ZERO);
                 s.haptic_done.store(true, Ordering::Release);
                 (model, r)
@@ -270,6 +307,7 @@ impl Session {
             device_faults: haptic.faults,
             dropped_records: haptic.dropped_records,
             dropped_strokes: haptic.dropped_strokes,
+            strokes_recut: haptic.recut,
             removed_mm3: names.iter().cloned().zip(&self.start_volumes).zip(&model.tissues).map(|((n, v0), t)| (n, v0 - t.grid.volume())).collect(),
             contact_ticks: names.iter().cloned().zip(logger.contact_ticks).collect(),
             max_force_n: logger.max_force,
@@ -347,11 +385,11 @@ fn haptic_loop<D: Device>(
     device: &mut D,
     options: &SessionOptions,
     records: &mut rtrb::Producer<TickRecord>,
-    strokes: &mut rtrb::Producer<StrokeMsg>,
+    mesher: &mut MesherQueues,
     shared: &Shared,
 ) -> Result<HapticStats> {
     let period = options.params.period_s;
-    let mut stats = HapticStats { ticks: 0, missed: 0, faults: 0, dropped_records: 0, dropped_strokes: 0, trips: 0 };
+    let mut stats = HapticStats { ticks: 0, missed: 0, faults: 0, dropped_records: 0, dropped_strokes: 0, recut: 0, trips: 0 };
     let mut last: Option<DeviceState> = None;
     let start = Instant::now();
     let mut tick: u64 = 0;
@@ -385,10 +423,12 @@ fn haptic_loop<D: Device>(
             Err(e) => return Err(e),
         };
         device.send_force(out.force, out.torque);
-        if let Some((from, to)) = out.cut {
+        if let Some(stroke) = out.cut {
             flags |= FLAG_CUT;
-            if strokes.push(StrokeMsg { from, to, at: Instant::now() }).is_err() {
-                stats.dropped_strokes += 1;
+            match mesher.hand_on(core, model.tissues.len(), stroke) {
+                Some(Handed::Voxels) => {}
+                Some(Handed::Stroke) => stats.recut += 1,
+                None => stats.dropped_strokes += 1,
             }
         }
         stats.missed += u64::from(missed);
@@ -465,62 +505,131 @@ fn logger_loop(
     }
 }
 
-fn mesher_loop(mut rx: rtrb::Consumer<StrokeMsg>, mut mirror: TissueModel, burr: Burr, hz: f64, shared: &Shared) -> MesherStats {
+/// The haptic thread's ends of the mesher's queues (none when the session runs no mesher).
+struct MesherQueues<'a> {
+    strokes: &'a mut rtrb::Producer<StrokeMsg>,
+    changes: &'a mut [rtrb::Producer<VoxelChange>],
+}
+
+/// How a cut went to the mesher.
+enum Handed {
+    Voxels,
+    Stroke,
+}
+
+impl MesherQueues<'_> {
+    /// Hands this tick's cut to the mesher: its changed voxels when every queue has room for them,
+    /// else the stroke to cut again. Wait-free, allocation-free. `None` when the stroke queue is
+    /// full (the mesher has fallen seconds behind) or there is no mesher.
+    fn hand_on(&mut self, core: &HapticCore, tissues: usize, stroke: (DAffine3, DAffine3)) -> Option<Handed> {
+        if self.strokes.is_full() || self.changes.len() < tissues {
+            return None;
+        }
+        let mut msg = StrokeMsg { at: Instant::now(), counts: [0; MAX_TISSUES], recut: None };
+        let fits = (0..tissues).all(|t| self.changes[t].slots() >= core.last_changes(t).len());
+        if fits {
+            for (t, queue) in self.changes.iter_mut().enumerate().take(tissues) {
+                let changed = core.last_changes(t);
+                if let Ok(chunk) = queue.write_chunk_uninit(changed.len()) {
+                    msg.counts[t] = chunk.fill_from_iter(changed.iter().copied()) as u32;
+                }
+            }
+        } else {
+            msg.recut = Some(Recut { from: stroke.0, to: stroke.1, skipped: core.last_skipped() });
+        }
+        self.strokes.push(msg).ok()?;
+        Some(if fits { Handed::Voxels } else { Handed::Stroke })
+    }
+}
+
+fn mesher_loop(
+    mut strokes: rtrb::Consumer<StrokeMsg>,
+    mut changes: Vec<rtrb::Consumer<VoxelChange>>,
+    mut copy: TissueModel,
+    burr: Burr,
+    hz: f64,
+    shared: &Shared,
+) -> MesherStats {
     let mut stats = MesherStats { latencies_ms: Vec::new(), published: 0 };
-    let mut cutter = Cutter::default();
-    // The mirror only needs the geometry; the session's removed volume comes from the grids.
-    cutter.set_measure(Measure::Skip);
-    // Chunked meshing re-meshes only the leaves a stroke touched; without it (it failed to
-    // start), whole tissues are re-meshed.
-    let mut chunks = Mesher::full(&mirror).ok();
+    // Only for strokes whose voxels did not fit the queues; the copy needs geometry, not volume.
+    let mut recutter = Cutter::default();
+    recutter.set_measure(Measure::Skip);
+    // Chunked meshing re-meshes only the leaves a cut touched; without it (it failed to start),
+    // whole tissues are re-meshed.
+    let mut chunks = Mesher::full(&copy).ok();
+    let mut dirty = DirtyLeaves::default();
     let mut dirty_chunks = Vec::new();
-    let mut dirty = vec![false; mirror.tissues.len()];
-    // When each stroke since the last published mesh was cut (haptic tick time).
+    let mut dirty_tissues = vec![false; copy.tissues.len()];
+    // When each cut since the last published mesh was made (haptic tick time).
     let mut waiting: Vec<Instant> = Vec::new();
-    let period = Duration::from_secs_f64(1.0 / hz);
-    let mut next_mesh = Instant::now();
+    let gap = Duration::from_secs_f64(1.0 / hz);
+    let mut last_frame: Option<Instant> = None;
     loop {
         let done = shared.haptic_done.load(Ordering::Acquire);
-        while let Ok(s) = rx.pop() {
-            if let Ok(report) = cutter.cut(&mut mirror, &burr, s.from, s.to) {
-                if report.changed_voxels > 0 {
-                    waiting.push(s.at);
-                }
+        while let Ok(msg) = strokes.pop() {
+            let changed = match msg.recut {
+                Some(r) => recutter.recut(&mut copy, &burr, r.from, r.to, r.skipped).is_ok_and(|r| r.changed_voxels > 0),
+                None => follow_cut(&mut copy, &mut changes, &msg.counts, &mut dirty),
+            };
+            if changed {
+                waiting.push(msg.at);
             }
         }
         let now = Instant::now();
-        if !waiting.is_empty() && now >= next_mesh {
-            // A fixed rate from when meshing starts, so the meshing time does not stretch it.
-            next_mesh = (next_mesh + period).max(now);
+        if !waiting.is_empty() && last_frame.is_none_or(|f| now >= f + gap) {
+            last_frame = Some(now);
             dirty_chunks.clear();
-            cutter.take_dirty(&mut dirty_chunks);
+            dirty.drain_into(&mut dirty_chunks);
+            recutter.take_dirty(&mut dirty_chunks);
             for (t, _) in &dirty_chunks {
-                if let Some(d) = dirty.get_mut(*t) {
+                if let Some(d) = dirty_tissues.get_mut(*t) {
                     *d = true;
                 }
             }
             if let Some(m) = &mut chunks {
-                if m.update(&mirror, &dirty_chunks).is_err() {
+                if m.update(&copy, &dirty_chunks).is_err() {
                     chunks = None;
                 }
             }
-            for (i, d) in dirty.iter_mut().enumerate() {
+            for (i, d) in dirty_tissues.iter_mut().enumerate() {
                 if std::mem::take(d) {
                     let mesh = Arc::new(match &chunks {
                         Some(m) => m.mesh(i),
-                        None => mirror.tissues[i].grid.to_mesh(),
+                        None => crate::mesher::surface(&copy.tissues[i].grid).unwrap_or_default(),
                     });
                     shared.meshes.lock().unwrap_or_else(|p| p.into_inner())[i] = Some(mesh);
                 }
             }
-            // Every stroke's latency, from its tick to this mesh.
+            // Every cut's latency, from its tick to this mesh.
             let shown = Instant::now();
             stats.latencies_ms.extend(waiting.drain(..).map(|at| (shown - at).as_secs_f64() * 1e3));
             stats.published += 1;
         }
-        if done && rx.is_empty() && waiting.is_empty() {
+        if done && strokes.is_empty() && waiting.is_empty() {
             return stats;
         }
-        std::thread::sleep(Duration::from_millis(1));
+        std::thread::sleep(Duration::from_micros(500));
     }
+}
+
+/// Writes one cut's changed voxels (`counts[t]` of tissue `t`, next in its queue) into the copy
+/// and marks the chunks they dirty; true when any voxel changed.
+fn follow_cut(copy: &mut TissueModel, changes: &mut [rtrb::Consumer<VoxelChange>], counts: &[u32], dirty: &mut DirtyLeaves) -> bool {
+    let mut any = false;
+    for (t, (queue, tissue)) in changes.iter_mut().zip(&mut copy.tissues).enumerate() {
+        let n = counts.get(t).map_or(0, |c| *c as usize);
+        if n == 0 {
+            continue;
+        }
+        // The haptic thread queued them before the message: all n are there.
+        let Ok(chunk) = queue.read_chunk(n) else { continue };
+        let (a, b) = chunk.as_slices();
+        for part in [a, b] {
+            tissue.grid.write_voxels(part);
+            dirty.record(t, part);
+        }
+        chunk.commit_all();
+        any = true;
+    }
+    any
 }

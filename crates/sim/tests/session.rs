@@ -10,6 +10,8 @@ use dentsim_sim::phantom::CapsuleTooth;
 use dentsim_sim::replay::{replay, write_force_csv};
 use dentsim_sim::session::{run_session, SessionOptions};
 use dentsim_sim::tissue::TissueTable;
+use std::path::PathBuf;
+
 use glam::DVec3;
 
 fn tooth() -> TissueModel {
@@ -115,4 +117,33 @@ fn tooth_cut() -> TissueModel {
     let at = |z: f64| glam::DAffine3::from_translation(DVec3::new(0.0, 0.0, z));
     dentsim_sim::cut::Cutter::default().cut(&mut m, &dentsim_sim::burr::Burr::round(1.0).unwrap(), at(6.0), at(4.8)).unwrap();
     m
+}
+
+/// Cuts whose changed voxels do not fit the mesher's queues go over as strokes and are cut again
+/// on its copy: the last mesh is still exactly the final geometry.
+#[test]
+fn a_mesher_short_of_queue_room_cuts_the_overflow_again() {
+    let model = tooth();
+    let hand = SimulatedHand::new(HandParams {
+        start: DVec3::new(0.0, 0.0, 5.8),
+        target: DVec3::new(0.0, 0.0, 3.0),
+        push_n: 2.0,
+        pedal: true,
+        rpm: 400_000.0,
+        duration_s: 2.0,
+        ..Default::default()
+    });
+    // Room for about one tick's cut: most ticks fit, a large one (or a backlog) does not.
+    let options = SessionOptions { mesher_queue_voxels: 3000, log_path: None, ..headless(PathBuf::new()) };
+    let out = run_session(model, hand, options).unwrap();
+    let removed: f64 = out.removed_mm3.iter().map(|(_, v)| v).sum();
+    assert!(removed > 0.1, "{:?}", out.removed_mm3);
+    assert_eq!(out.dropped_strokes, 0);
+    println!("{} of {} ticks cut again by the mesher", out.strokes_recut, out.ticks);
+    assert!(out.strokes_recut > 0);
+    let full = Mesher::full(&out.model).unwrap();
+    for (t, shown) in out.final_meshes.iter().enumerate().take(1) {
+        let shown = shown.as_ref().unwrap_or_else(|| panic!("no mesh published for tissue {t}"));
+        assert!(triangle_set(shown) == triangle_set(&full.mesh(t)), "tissue {t}: the mesher's last mesh is not the final geometry");
+    }
 }

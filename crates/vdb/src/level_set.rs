@@ -299,6 +299,15 @@ impl LevelSet {
         Ok(CutStats { changed_voxels: s.changed_voxels, removed_mm3: s.removed_volume })
     }
 
+    /// The voxels the last [`subtract_logged`](Self::subtract_logged) changed, with their new
+    /// values, appended to `out` in its log's order: what a copy of the grid must write to follow
+    /// the cut without cutting again. No allocation once `out` has room.
+    pub fn last_cut_values(&self, out: &mut Vec<VoxelChange>) {
+        let start = out.len();
+        out.extend_from_slice(self.inner.last_changes());
+        self.inner.last_new_values(&mut out[start..]);
+    }
+
     /// Grows the cut's working buffers for patches of up to `dims` voxels, so such cuts allocate
     /// nothing (values unchanged).
     pub fn reserve_cut(&mut self, dims: [u32; 3]) {

@@ -111,6 +111,7 @@ pub(crate) mod ffi {
             measured: bool,
         ) -> Result<CutStats>;
         fn last_changes(self: &LevelSet) -> &[VoxelChange];
+        fn last_new_values(self: &LevelSet, out: &mut [VoxelChange]);
         fn reserve_cut(self: Pin<&mut LevelSet>, dims: [u32; 3]);
         fn removal_by_offset(
             self: &LevelSet,

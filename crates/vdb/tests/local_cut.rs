@@ -107,3 +107,23 @@ fn leaf_origins_and_dense_reads_agree_with_the_reader() {
     assert_eq!(v[13], r.value(DVec3::new(16.0 * H, 0.0, 0.0)));
     assert!(g.read_dense(IVec3::ZERO, [3, 3, 3], &mut v[..5]).is_err());
 }
+
+#[test]
+fn a_copy_follows_a_cut_by_writing_its_new_values() {
+    let mut g = ball(1.5);
+    let mut copy = g.clone();
+    let patch = tool(DVec3::new(1.1, -0.2, 0.4), 0.6);
+    let mut log = Vec::new();
+    let stats = g.subtract_logged(&patch, 0.0, Measure::Skip, &mut log).unwrap();
+    let mut handed = Vec::new();
+    g.last_cut_values(&mut handed);
+    assert_eq!(handed.len() as u64, stats.changed_voxels);
+    assert!(handed.len() > 100, "the cut changed {} voxels", handed.len());
+    // Same voxels as the log, each with the value the grid now holds.
+    let mut now = log.clone();
+    g.read_voxels(&mut now);
+    assert_eq!(handed, now);
+    assert_ne!(copy.content_hash(), g.content_hash());
+    copy.write_voxels(&handed);
+    assert_eq!(copy.content_hash(), g.content_hash());
+}
