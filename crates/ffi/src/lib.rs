@@ -307,7 +307,7 @@ pub fn start_session(params: &SessionParams) -> Result<Box<HapticSession>, Strin
             profile: params.profile.clone(),
             filter: params.filter.clone(),
             realtime: params.realtime,
-            mesher_hz: 30.0,
+            mesher_hz: dentsim_sim::session::DEFAULT_MESHER_HZ,
         };
         let live = LiveSession::start(&request).map_err(|e| e.to_string())?;
         Ok(Box::new(HapticSession { live, last: LiveState::default() }))
