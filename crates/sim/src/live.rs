@@ -17,7 +17,7 @@ use crate::error::{invalid, Result};
 use crate::filter::FilterSpec;
 use crate::haptics::HapticParams;
 use crate::log::TickRecord;
-use crate::mesher::surface;
+use crate::mesher::{surface, SurfaceFrame};
 use crate::model::TissueModel;
 use crate::phantom::CapsuleTooth;
 use crate::session::{Session, SessionOptions};
@@ -60,6 +60,8 @@ pub struct LiveSession {
     session: Option<Session>,
     props: Vec<TissueProps>,
     meshes: Vec<Arc<TriMesh>>,
+    /// The session's frames `meshes` were flattened from.
+    frames: Vec<Option<Arc<SurfaceFrame>>>,
     generation: u64,
     burr_mesh: TriMesh,
     last: Option<TickRecord>,
@@ -99,7 +101,8 @@ impl LiveSession {
             ..SessionOptions::default()
         };
         let session = Session::start(model, device, options)?;
-        Ok(LiveSession { session: Some(session), props, meshes, generation: 1, burr_mesh, last: None, initial_volumes })
+        let frames = vec![None; meshes.len()];
+        Ok(LiveSession { session: Some(session), props, meshes, frames, generation: 1, burr_mesh, last: None, initial_volumes })
     }
 
     /// The latest state; picks up new meshes. Never waits on the haptic thread; after the device
@@ -110,9 +113,11 @@ impl LiveSession {
                 self.last = Some(r);
             }
             if session.is_running() {
-                for (mine, new) in self.meshes.iter_mut().zip(session.latest_meshes()) {
-                    if let Some(new) = new.filter(|n| !Arc::ptr_eq(n, mine)) {
-                        *mine = new;
+                for ((mine, seen), new) in self.meshes.iter_mut().zip(&mut self.frames).zip(session.latest_frames()) {
+                    let Some(new) = new else { continue };
+                    if seen.as_ref().is_none_or(|s| !Arc::ptr_eq(s, &new)) {
+                        *mine = Arc::new(new.to_mesh());
+                        *seen = Some(new);
                         self.generation += 1;
                     }
                 }

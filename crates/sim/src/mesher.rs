@@ -9,11 +9,12 @@
 //! every cell vertex is computed from its own eight corners alone, so a chunk re-meshed after a cut
 //! is bit-identical to the same chunk in a full re-mesh.
 //!
-//! This is the one mesher: live frames ([`Mesher::mesh`], chunks side by side, seam vertices
-//! repeated) and every finished surface ([`surface`], [`Mesher::surface`]: the same triangles with
-//! each cell's vertex shared, so the surface is closed) come from it.
+//! This is the one mesher: live frames ([`Mesher::frame`]: the chunks themselves, shared, seam
+//! vertices repeated) and every finished surface ([`surface`], [`Mesher::surface`]: the same
+//! triangles with each cell's vertex shared, so the surface is closed) come from it.
 use std::collections::{BTreeMap, HashMap};
 use std::hash::BuildHasherDefault;
+use std::sync::Arc;
 
 use dentsim_vdb::{LevelSet, TriMesh, LEAF_DIM};
 use glam::{IVec3, Vec3};
@@ -34,10 +35,46 @@ pub struct ChunkMesh {
     pub cells: Vec<IVec3>,
 }
 
+/// One tissue's surface as the mesher's chunks, shared: publishing a frame costs a pointer per
+/// chunk, not a copy of every triangle; whoever shows it flattens it ([`SurfaceFrame::to_mesh`]).
+#[derive(Clone, Debug, Default)]
+pub struct SurfaceFrame {
+    chunks: Vec<Arc<ChunkMesh>>,
+}
+
+impl SurfaceFrame {
+    /// The chunks' triangles side by side, in origin order (seam vertices repeated).
+    pub fn to_mesh(&self) -> TriMesh {
+        let mut out = TriMesh::default();
+        let points = self.chunks.iter().map(|c| c.points.len()).sum();
+        out.points.reserve(points);
+        out.normals.reserve(points);
+        out.triangles.reserve(self.triangle_count());
+        for c in &self.chunks {
+            let base = out.points.len() as u32;
+            out.points.extend_from_slice(&c.points);
+            out.normals.extend_from_slice(&c.normals);
+            out.triangles.extend(c.triangles.iter().map(|t| t.map(|i| i + base)));
+        }
+        out
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.chunks.iter().map(|c| c.triangles.len()).sum()
+    }
+}
+
+impl From<TriMesh> for SurfaceFrame {
+    fn from(m: TriMesh) -> Self {
+        let chunk = ChunkMesh { points: m.points, normals: m.normals, triangles: m.triangles, cells: Vec::new() };
+        SurfaceFrame { chunks: vec![Arc::new(chunk)] }
+    }
+}
+
 /// Chunk meshes of every tissue, keyed by leaf origin.
 #[derive(Default)]
 pub struct Mesher {
-    tissues: Vec<BTreeMap<(i32, i32, i32), ChunkMesh>>,
+    tissues: Vec<BTreeMap<(i32, i32, i32), Arc<ChunkMesh>>>,
     values: Vec<f32>,
 }
 
@@ -50,7 +87,7 @@ impl Mesher {
             for origin in t.grid.leaf_origins() {
                 let c = mesh_chunk(&t.grid, origin, &mut m.values)?;
                 if !c.triangles.is_empty() {
-                    chunks.insert(origin.into(), c);
+                    chunks.insert(origin.into(), Arc::new(c));
                 }
             }
             m.tissues.push(chunks);
@@ -72,7 +109,7 @@ impl Mesher {
             if c.triangles.is_empty() {
                 self.tissues[t].remove(&origin.into());
             } else {
-                self.tissues[t].insert(origin.into(), c);
+                self.tissues[t].insert(origin.into(), Arc::new(c));
             }
         }
         Ok(dirty.len())
@@ -109,16 +146,14 @@ impl Mesher {
         out
     }
 
-    /// One tissue's surface, chunks concatenated in origin order (a live frame: no joining).
+    /// One tissue's current chunks, shared (a live frame).
+    pub fn frame(&self, tissue: usize) -> SurfaceFrame {
+        SurfaceFrame { chunks: self.tissues.get(tissue).into_iter().flat_map(|m| m.values().cloned()).collect() }
+    }
+
+    /// One tissue's surface, chunks concatenated in origin order (a live frame, flattened).
     pub fn mesh(&self, tissue: usize) -> TriMesh {
-        let mut out = TriMesh::default();
-        for c in self.tissues.get(tissue).into_iter().flat_map(|m| m.values()) {
-            let base = out.points.len() as u32;
-            out.points.extend_from_slice(&c.points);
-            out.normals.extend_from_slice(&c.normals);
-            out.triangles.extend(c.triangles.iter().map(|t| t.map(|i| i + base)));
-        }
-        out
+        self.frame(tissue).to_mesh()
     }
 }
 
@@ -129,7 +164,7 @@ pub fn surface(grid: &LevelSet) -> Result<TriMesh> {
     for origin in grid.leaf_origins() {
         let c = mesh_chunk(grid, origin, &mut values)?;
         if !c.triangles.is_empty() {
-            chunks.insert(origin.into(), c);
+            chunks.insert(origin.into(), Arc::new(c));
         }
     }
     Ok(Mesher { tissues: vec![chunks], values }.surface(0))

@@ -34,7 +34,7 @@ use crate::force::MAX_TISSUES;
 use crate::error::{invalid, Error, Result};
 use crate::haptics::{HapticCore, HapticParams};
 use crate::log::{write_header, write_record, LogHeader, TickRecord, FLAG_CUT, FLAG_DEVICE_FAULT, FLAG_MISSED};
-use crate::mesher::Mesher;
+use crate::mesher::{Mesher, SurfaceFrame};
 use crate::model::TissueModel;
 use crate::sweep::CutBall;
 
@@ -129,7 +129,7 @@ struct Shared {
     stop: AtomicBool,
     haptic_done: AtomicBool,
     latest: Mutex<Option<TickRecord>>,
-    meshes: Mutex<Vec<Option<Arc<TriMesh>>>>,
+    frames: Mutex<Vec<Option<Arc<SurfaceFrame>>>>,
 }
 
 struct HapticStats {
@@ -189,7 +189,7 @@ impl Session {
             stop: AtomicBool::new(false),
             haptic_done: AtomicBool::new(false),
             latest: Mutex::new(None),
-            meshes: Mutex::new(vec![None; names.len()]),
+            frames: Mutex::new(vec![None; names.len()]),
         });
         let (mut rec_tx, rec_rx) = rtrb::RingBuffer::<TickRecord>::new(QUEUE_RECORDS);
         let (mut stroke_tx, stroke_rx) = rtrb::RingBuffer::<StrokeMsg>::new(QUEUE_STROKES);
@@ -272,9 +272,9 @@ impl Session {
         *self.shared.latest.lock().unwrap_or_else(|p| p.into_inner())
     }
 
-    /// The latest mesh of each tissue the mesher published (model order).
-    pub fn latest_meshes(&self) -> Vec<Option<Arc<TriMesh>>> {
-        self.shared.meshes.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    /// The latest frame of each tissue the mesher published (model order).
+    pub fn latest_frames(&self) -> Vec<Option<Arc<SurfaceFrame>>> {
+        self.shared.frames.lock().unwrap_or_else(|p| p.into_inner()).clone()
     }
 
     pub fn tissue_names(&self) -> &[String] {
@@ -314,7 +314,7 @@ impl Session {
             periods_us: logger.periods_us,
             cut_to_visible_ms: mesher.as_ref().map_or_else(Vec::new, |m| m.latencies_ms.clone()),
             meshes_published: mesher.map_or(0, |m| m.published),
-            final_meshes: self.shared.meshes.lock().unwrap_or_else(|p| p.into_inner()).clone(),
+            final_meshes: self.latest_frames().iter().map(|f| f.as_ref().map(|f| Arc::new(f.to_mesh()))).collect(),
             log_path: self.log_path.clone(),
             contact_changes: logger.changes,
             last_record: logger.last,
@@ -593,11 +593,11 @@ fn mesher_loop(
             }
             for (i, d) in dirty_tissues.iter_mut().enumerate() {
                 if std::mem::take(d) {
-                    let mesh = Arc::new(match &chunks {
-                        Some(m) => m.mesh(i),
-                        None => crate::mesher::surface(&copy.tissues[i].grid).unwrap_or_default(),
+                    let frame = Arc::new(match &chunks {
+                        Some(m) => m.frame(i),
+                        None => crate::mesher::surface(&copy.tissues[i].grid).unwrap_or_default().into(),
                     });
-                    shared.meshes.lock().unwrap_or_else(|p| p.into_inner())[i] = Some(mesh);
+                    shared.frames.lock().unwrap_or_else(|p| p.into_inner())[i] = Some(frame);
                 }
             }
             // Every cut's latency, from its tick to this mesh.
