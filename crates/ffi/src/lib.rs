@@ -46,7 +46,7 @@ mod bridge {
     }
 
     /// Which tooth to turn into tissues, and how finely.
-    struct SegmentParams {
+    struct TissuesFromScanParams {
         voxel_size_mm: f64,
         fdi: u8,
         use_seed: bool,
@@ -129,12 +129,12 @@ mod bridge {
         fn default_stroke() -> StrokeParams;
         fn phantom_stroke(params: &StrokeParams) -> Result<Vec<TissueSurface>>;
         fn read_tissues(path: &str) -> Result<Vec<TissueSurface>>;
-        fn segment_image(geometry: &ImageGeometry, values: &[f32], params: &SegmentParams) -> Result<Vec<TissueSurface>>;
+        fn tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Vec<TissueSurface>>;
         fn version() -> String;
     }
 }
 
-pub use bridge::{ImageGeometry, PreparationParams, SegmentParams, SessionParams, SessionState, StrokeParams, TissueSurface};
+pub use bridge::{ImageGeometry, PreparationParams, TissuesFromScanParams, SessionParams, SessionState, StrokeParams, TissueSurface};
 
 /// Runs `f`, turning a panic into an error so it never unwinds into C++.
 fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
@@ -179,7 +179,7 @@ pub fn read_tissues(path: &str) -> Result<Vec<TissueSurface>, String> {
 }
 
 /// One tooth's tissue surfaces from a scan already in memory (a ParaView reader's output).
-pub fn segment_image(geometry: &ImageGeometry, values: &[f32], params: &SegmentParams) -> Result<Vec<TissueSurface>, String> {
+pub fn tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Vec<TissueSurface>, String> {
     guarded("tissues from scan", || {
         let d = geometry.direction;
         let direction = [[d[0], d[3], d[6]], [d[1], d[4], d[7]], [d[2], d[5], d[8]]];
@@ -388,15 +388,15 @@ mod tests {
     #[test]
     fn images_with_bad_geometry_or_values_are_refused() {
         let geometry = ImageGeometry { dims: [4, 4, 4], spacing: [0.2; 3], origin: [0.0; 3], direction: [1., 0., 0., 0., 1., 0., 0., 0., 1.] };
-        let params = SegmentParams { voxel_size_mm: 0.05, fdi: 36, use_seed: false, seed_mm: [0.0; 3] };
-        let err = segment_image(&geometry, &[0.0; 10], &params).err().expect("refused");
+        let params = TissuesFromScanParams { voxel_size_mm: 0.05, fdi: 36, use_seed: false, seed_mm: [0.0; 3] };
+        let err = tissues_from_scan(&geometry, &[0.0; 10], &params).err().expect("refused");
         assert!(err.contains("input image"), "{err}");
         let mut values = vec![0.0f32; 64];
         values[5] = f32::NAN;
-        let err = segment_image(&geometry, &values, &params).err().expect("refused");
+        let err = tissues_from_scan(&geometry, &values, &params).err().expect("refused");
         assert!(err.to_lowercase().contains("nan"), "{err}");
-        let params = SegmentParams { fdi: 19, ..params };
-        let err = segment_image(&geometry, &vec![0.0f32; 64], &params).err().expect("refused");
+        let params = TissuesFromScanParams { fdi: 19, ..params };
+        let err = tissues_from_scan(&geometry, &vec![0.0f32; 64], &params).err().expect("refused");
         assert!(err.contains("19"), "{err}");
     }
 

@@ -6,10 +6,10 @@
 
 #include "DentSimSourcesModule.h"
 
-class DENTSIMSOURCES_EXPORT vtkDentSimPhantomSource : public vtkMultiBlockDataSetAlgorithm {
+class DENTSIMSOURCES_EXPORT vtkDentSimPhantomStroke : public vtkMultiBlockDataSetAlgorithm {
 public:
-  static vtkDentSimPhantomSource* New();
-  vtkTypeMacro(vtkDentSimPhantomSource, vtkMultiBlockDataSetAlgorithm);
+  static vtkDentSimPhantomStroke* New();
+  vtkTypeMacro(vtkDentSimPhantomStroke, vtkMultiBlockDataSetAlgorithm);
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
   vtkSetMacro(VoxelSize, double);
@@ -22,8 +22,8 @@ public:
   vtkGetVector3Macro(StrokeEnd, double);
 
 protected:
-  vtkDentSimPhantomSource();
-  ~vtkDentSimPhantomSource() override = default;
+  vtkDentSimPhantomStroke();
+  ~vtkDentSimPhantomStroke() override = default;
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
   double VoxelSize;
@@ -32,6 +32,6 @@ protected:
   double StrokeEnd[3];
 
 private:
-  vtkDentSimPhantomSource(const vtkDentSimPhantomSource&) = delete;
-  void operator=(const vtkDentSimPhantomSource&) = delete;
+  vtkDentSimPhantomStroke(const vtkDentSimPhantomStroke&) = delete;
+  void operator=(const vtkDentSimPhantomStroke&) = delete;
 };

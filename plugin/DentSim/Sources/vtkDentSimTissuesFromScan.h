@@ -8,10 +8,10 @@
 
 #include "DentSimSourcesModule.h"
 
-class DENTSIMSOURCES_EXPORT vtkDentSimScanToTissues : public vtkMultiBlockDataSetAlgorithm {
+class DENTSIMSOURCES_EXPORT vtkDentSimTissuesFromScan : public vtkMultiBlockDataSetAlgorithm {
 public:
-  static vtkDentSimScanToTissues* New();
-  vtkTypeMacro(vtkDentSimScanToTissues, vtkMultiBlockDataSetAlgorithm);
+  static vtkDentSimTissuesFromScan* New();
+  vtkTypeMacro(vtkDentSimTissuesFromScan, vtkMultiBlockDataSetAlgorithm);
   void PrintSelf(ostream& os, vtkIndent indent) override;
 
   vtkSetMacro(VoxelSize, double);
@@ -24,8 +24,8 @@ public:
   vtkGetVector3Macro(SeedPoint, double);
 
 protected:
-  vtkDentSimScanToTissues();
-  ~vtkDentSimScanToTissues() override = default;
+  vtkDentSimTissuesFromScan();
+  ~vtkDentSimTissuesFromScan() override = default;
   int FillInputPortInformation(int port, vtkInformation* info) override;
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
@@ -35,6 +35,6 @@ protected:
   double SeedPoint[3] = {0.0, 0.0, 0.0};
 
 private:
-  vtkDentSimScanToTissues(const vtkDentSimScanToTissues&) = delete;
-  void operator=(const vtkDentSimScanToTissues&) = delete;
+  vtkDentSimTissuesFromScan(const vtkDentSimTissuesFromScan&) = delete;
+  void operator=(const vtkDentSimTissuesFromScan&) = delete;
 };

@@ -1,4 +1,4 @@
-#include "vtkDentSimPhantomSource.h"
+#include "vtkDentSimPhantomStroke.h"
 
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
@@ -7,9 +7,9 @@
 
 #include "vtkDentSimSurfaces.h"
 
-vtkStandardNewMacro(vtkDentSimPhantomSource);
+vtkStandardNewMacro(vtkDentSimPhantomStroke);
 
-vtkDentSimPhantomSource::vtkDentSimPhantomSource() {
+vtkDentSimPhantomStroke::vtkDentSimPhantomStroke() {
   this->SetNumberOfInputPorts(0);
   const auto d = dentsim::ffi::default_stroke();
   this->VoxelSize = d.voxel_size_mm;
@@ -20,7 +20,7 @@ vtkDentSimPhantomSource::vtkDentSimPhantomSource() {
   }
 }
 
-int vtkDentSimPhantomSource::RequestData(vtkInformation*, vtkInformationVector**,
+int vtkDentSimPhantomStroke::RequestData(vtkInformation*, vtkInformationVector**,
                                          vtkInformationVector* outputVector) {
   auto* output = vtkMultiBlockDataSet::GetData(outputVector, 0);
   dentsim::ffi::StrokeParams params{};
@@ -39,7 +39,7 @@ int vtkDentSimPhantomSource::RequestData(vtkInformation*, vtkInformationVector**
   return 1;
 }
 
-void vtkDentSimPhantomSource::PrintSelf(ostream& os, vtkIndent indent) {
+void vtkDentSimPhantomStroke::PrintSelf(ostream& os, vtkIndent indent) {
   this->Superclass::PrintSelf(os, indent);
   os << indent << "VoxelSize: " << this->VoxelSize << " mm\n";
   os << indent << "BurrDiameter: " << this->BurrDiameter << " mm\n";

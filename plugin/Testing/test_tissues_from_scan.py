@@ -49,5 +49,5 @@ focal, distance = camera.GetFocalPoint(), camera.GetDistance()
 view.CameraPosition = [focal[0] + 0.5 * distance, focal[1] - 0.7 * distance, focal[2] + 0.5 * distance]
 view.CameraViewUp = [0.0, 0.0, 1.0]
 simple.ResetCamera(view)
-compare_with_baseline(view, args, "scan_to_tissues")
-print("PASSED test_scan_to_tissues")
+compare_with_baseline(view, args, "tissues_from_scan")
+print("PASSED test_tissues_from_scan")

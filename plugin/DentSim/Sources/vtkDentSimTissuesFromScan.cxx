@@ -1,4 +1,4 @@
-#include "vtkDentSimScanToTissues.h"
+#include "vtkDentSimTissuesFromScan.h"
 
 #include <vtkDataArray.h>
 #include <vtkImageData.h>
@@ -13,16 +13,16 @@
 
 #include "vtkDentSimSurfaces.h"
 
-vtkStandardNewMacro(vtkDentSimScanToTissues);
+vtkStandardNewMacro(vtkDentSimTissuesFromScan);
 
-vtkDentSimScanToTissues::vtkDentSimScanToTissues() { this->SetNumberOfInputPorts(1); }
+vtkDentSimTissuesFromScan::vtkDentSimTissuesFromScan() { this->SetNumberOfInputPorts(1); }
 
-int vtkDentSimScanToTissues::FillInputPortInformation(int, vtkInformation* info) {
+int vtkDentSimTissuesFromScan::FillInputPortInformation(int, vtkInformation* info) {
   info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkImageData");
   return 1;
 }
 
-int vtkDentSimScanToTissues::RequestData(vtkInformation*, vtkInformationVector** inputVector,
+int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector** inputVector,
                                          vtkInformationVector* outputVector) {
   vtkImageData* image = vtkImageData::GetData(inputVector[0], 0);
   vtkDataArray* scalars = image ? image->GetPointData()->GetScalars() : nullptr;
@@ -52,14 +52,14 @@ int vtkDentSimScanToTissues::RequestData(vtkInformation*, vtkInformationVector**
   std::vector<float> values(static_cast<size_t>(n));
   for (vtkIdType i = 0; i < n; ++i) values[i] = static_cast<float>(scalars->GetComponent(i, 0));
 
-  dentsim::ffi::SegmentParams params{};
+  dentsim::ffi::TissuesFromScanParams params{};
   params.voxel_size_mm = this->VoxelSize;
   params.fdi = static_cast<uint8_t>(this->Tooth > 0 && this->Tooth < 256 ? this->Tooth : 0);
   params.use_seed = this->UseSeedPoint;
   for (int i = 0; i < 3; ++i) params.seed_mm[i] = this->SeedPoint[i];
   try {
     dentsim::FillTissueBlocks(
-        dentsim::ffi::segment_image(geometry, rust::Slice<const float>(values.data(), values.size()),
+        dentsim::ffi::tissues_from_scan(geometry, rust::Slice<const float>(values.data(), values.size()),
                                     params),
         vtkMultiBlockDataSet::GetData(outputVector, 0));
   } catch (const rust::Error& e) {
@@ -69,7 +69,7 @@ int vtkDentSimScanToTissues::RequestData(vtkInformation*, vtkInformationVector**
   return 1;
 }
 
-void vtkDentSimScanToTissues::PrintSelf(ostream& os, vtkIndent indent) {
+void vtkDentSimTissuesFromScan::PrintSelf(ostream& os, vtkIndent indent) {
   this->Superclass::PrintSelf(os, indent);
   os << indent << "VoxelSize: " << this->VoxelSize << " mm\n";
   os << indent << "Tooth: " << this->Tooth << "\n";
