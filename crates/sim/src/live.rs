@@ -65,8 +65,13 @@ pub struct LiveSession {
     generation: u64,
     burr_mesh: TriMesh,
     last: Option<TickRecord>,
-    /// Enclosed volume of each tissue's first mesh (mm³), to show what the session removed.
-    initial_volumes: Vec<f64>,
+    /// Each tissue's volume at the start (mm³, from its grid, as every other removed volume).
+    start_volumes: Vec<f64>,
+    /// Enclosed volume of each tissue's first mesh (mm³): while the grids are the haptic
+    /// thread's, what a frame lost against it is the running estimate of the removed volume.
+    start_mesh_volumes: Vec<f64>,
+    /// Removed volume per tissue from the grids, once the session has ended.
+    removed: Option<Vec<f64>>,
 }
 
 impl LiveSession {
@@ -90,7 +95,7 @@ impl LiveSession {
         let burr_mesh = burr_mesh(&Burr::round(params.burr_diameter_mm)?)?;
         let props = model.tissues.iter().map(|t| t.props.clone()).collect();
         let meshes = model.tissues.iter().map(|t| surface(&t.grid).map(Arc::new)).collect::<Result<Vec<_>>>()?;
-        let initial_volumes = meshes.iter().map(|m| m.volume()).collect();
+        let start_mesh_volumes = meshes.iter().map(|m| m.volume()).collect();
         let options = SessionOptions {
             params,
             realtime: req.realtime,
@@ -102,7 +107,19 @@ impl LiveSession {
         };
         let session = Session::start(model, device, options)?;
         let frames = vec![None; meshes.len()];
-        Ok(LiveSession { session: Some(session), props, meshes, frames, generation: 1, burr_mesh, last: None, initial_volumes })
+        let start_volumes = session.start_volumes().to_vec();
+        Ok(LiveSession {
+            session: Some(session),
+            props,
+            meshes,
+            frames,
+            generation: 1,
+            burr_mesh,
+            last: None,
+            start_volumes,
+            start_mesh_volumes,
+            removed: None,
+        })
     }
 
     /// The latest state; picks up new meshes. Never waits on the haptic thread; after the device
@@ -128,6 +145,7 @@ impl LiveSession {
                     self.last = outcome.last_record;
                 }
                 self.meshes = outcome.model.tissues.iter().map(|t| surface(&t.grid).map(Arc::new)).collect::<Result<Vec<_>>>()?;
+                self.removed = Some(outcome.removed_mm3.iter().map(|(_, v)| *v).collect());
                 self.generation += 1;
             }
         }
@@ -153,9 +171,15 @@ impl LiveSession {
         &self.meshes
     }
 
-    /// (before, now) enclosed volume of each tissue's surface (mm³, from the meshes).
+    /// (at the start, now) volume of each tissue (mm³): from the grids, except that while the
+    /// session runs the change since the start is what the live surfaces lost.
     pub fn volumes_mm3(&self) -> Vec<(f64, f64)> {
-        self.initial_volumes.iter().zip(&self.meshes).map(|(b, m)| (*b, m.volume())).collect()
+        let running = self.start_mesh_volumes.iter().zip(&self.meshes).map(|(v0, m)| v0 - m.volume());
+        let removed: Vec<f64> = match &self.removed {
+            Some(r) => r.clone(),
+            None => running.collect(),
+        };
+        self.start_volumes.iter().zip(removed).map(|(v0, r)| (*v0, v0 - r)).collect()
     }
 
     /// The burr head at the proxy with the device's orientation (world), as a display draws it.

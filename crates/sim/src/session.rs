@@ -277,6 +277,11 @@ impl Session {
         self.shared.frames.lock().unwrap_or_else(|p| p.into_inner()).clone()
     }
 
+    /// Each tissue's volume when the session started (mm³, model order).
+    pub fn start_volumes(&self) -> &[f64] {
+        &self.start_volumes
+    }
+
     pub fn tissue_names(&self) -> &[String] {
         &self.names
     }

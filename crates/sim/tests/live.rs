@@ -65,3 +65,25 @@ fn bad_inputs_are_refused_before_starting() {
     assert!(e(LiveRequest { phantom_voxel_mm: -1.0, ..good.clone() }).contains("voxel"));
     assert!(e(LiveRequest { tissues: Some("/nonexistent/t.vdb".into()), ..good }).contains("/nonexistent/t.vdb"));
 }
+
+/// The volumes a display shows come from the grids, as every other removed volume: at the end,
+/// before − now is what the session's grids lost.
+#[test]
+fn final_volumes_are_the_grids() {
+    use dentsim_sim::phantom::CapsuleTooth;
+    use dentsim_sim::tissue::TissueTable;
+    let dir = tempfile::tempdir().unwrap();
+    let mut live = LiveSession::start(&request(dir.path())).unwrap();
+    let start = CapsuleTooth::default().build(0.08, &TissueTable::default()).unwrap();
+    while live.poll().unwrap().running {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    let volumes = live.volumes_mm3();
+    for (t, (before, now)) in start.tissues.iter().zip(&volumes) {
+        assert_eq!(before.to_bits(), t.grid.volume().to_bits(), "{}", t.props.name);
+        assert!(now <= before, "{}: {now} > {before}", t.props.name);
+    }
+    let (before, now) = volumes[0];
+    println!("enamel {before:.4} -> {now:.4} mm³");
+    assert!(before - now > 1e-3, "the session removed enamel");
+}
