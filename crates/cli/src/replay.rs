@@ -25,7 +25,7 @@ pub fn run(args: &Args) -> Result<()> {
     bar.finish_and_clear();
     println!("{} ticks replayed; largest force difference from the log {} N", summary.ticks, summary.max_force_difference_n);
     for t in &summary.tissues {
-        println!("{:<8} removed {:>8.4} mm³  hash {}", t.name, t.removed_mm3, t.content_hash);
+        println!("{:<8} removed {:>8.4} mm³  hash {}", t.volumes.name, t.volumes.removed_mm3, t.content_hash);
     }
     match summary.hashes_match_session {
         Some(true) => println!("bit-exact: every tissue's content hash equals the session's (summary.json beside the log)"),

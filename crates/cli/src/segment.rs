@@ -2,7 +2,6 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use dentsim_cbct::{Label, ReadOptions};
-use dentsim_sim::export::write_atomic;
 use dentsim_sim::scan::ScanToTissues;
 
 #[derive(clap::Args)]
@@ -59,7 +58,7 @@ pub fn run(args: &Args) -> Result<()> {
     model.save(&args.out)?;
     let json = serde_json::to_vec_pretty(&report)?;
     let report_path = PathBuf::from(format!("{}.json", args.out.display()));
-    write_atomic(&report_path, |w| w.write_all(&json)).with_context(|| format!("writing {}", report_path.display()))?;
+    dentsim_atomic::write(&report_path, |w| w.write_all(&json)).with_context(|| format!("writing {}", report_path.display()))?;
     bar.finish_and_clear();
     println!("calibration: {} (grey = {:.3} HU + {:.1})", report.calibration.method, report.calibration.hu_scale, report.calibration.hu_offset);
     for t in &report.tissues {

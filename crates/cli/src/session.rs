@@ -49,7 +49,7 @@ pub fn run(args: &Args) -> Result<()> {
     for t in &summary.tissues {
         println!(
             "{:<8} removed {:>8.4} mm³  contact {:>7.3} s  hash {}",
-            t.name, t.removed_mm3, t.contact_s, t.content_hash
+            t.volumes.name, t.volumes.removed_mm3, t.contact_s, t.content_hash
         );
     }
     println!("wrote {} ({LOG_NAME}, tissues.vdb, meshes, {SUMMARY_NAME})", args.out.display());

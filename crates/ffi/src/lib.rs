@@ -3,7 +3,7 @@
 //! no panic crosses: each call runs under `catch_unwind`.
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use dentsim_sim::model::Tissue;
+use dentsim_sim::model::{Tissue, TissueVolumes};
 use dentsim_sim::preparation::PhantomStroke;
 use dentsim_sim::live::{LiveRequest, LiveSession, LiveState};
 use dentsim_sim::tissue::{TissueProps, TissueTable};
@@ -236,30 +236,18 @@ pub fn prepare_tissues(
 }
 
 /// Surfaces of a cut model with each tissue's volume figures.
-fn cut_surfaces(model: &dentsim_sim::model::TissueModel, outcomes: &[dentsim_sim::preparation::TissueOutcome]) -> Vec<TissueSurface> {
-    model
-        .tissues
-        .iter()
-        .zip(outcomes)
-        .map(|(t, o)| surface(t, o.volume_before_mm3, o.volume_after_mm3, o.removed_mm3))
-        .collect()
+fn cut_surfaces(model: &dentsim_sim::model::TissueModel, volumes: &[TissueVolumes]) -> Vec<TissueSurface> {
+    model.tissues.iter().zip(volumes).map(|(t, v)| surface(t, v)).collect()
 }
 
 /// Surfaces of a model nothing has cut yet.
 fn unchanged_surfaces(model: &dentsim_sim::model::TissueModel) -> Vec<TissueSurface> {
-    model
-        .tissues
-        .iter()
-        .map(|t| {
-            let volume = t.grid.volume();
-            surface(t, volume, volume, 0.0)
-        })
-        .collect()
+    cut_surfaces(model, &TissueVolumes::unchanged(model))
 }
 
 /// A tissue's mesh and properties with the volumes the caller measured.
-fn surface(t: &Tissue, volume_before_mm3: f64, volume_after_mm3: f64, removed_mm3: f64) -> TissueSurface {
-    mesh_surface(&t.props, &t.grid.to_mesh(), volume_before_mm3, volume_after_mm3, removed_mm3)
+fn surface(t: &Tissue, v: &TissueVolumes) -> TissueSurface {
+    mesh_surface(&t.props, &t.grid.to_mesh(), v.volume_before_mm3, v.volume_after_mm3, v.removed_mm3)
 }
 
 fn mesh_surface(p: &TissueProps, mesh: &TriMesh, volume_before_mm3: f64, volume_after_mm3: f64, removed_mm3: f64) -> TissueSurface {

@@ -336,8 +336,9 @@ pub const LOOP_RUNS: usize = 3;
 /// No peer runs these; the rows carry the goals instead.
 pub fn loop_period(tooth: &BenchTooth, seconds: f64) -> Result<Vec<BenchRow>> {
     let (a, b) = (tooth.occlusal + DVec3::new(0.0, 0.0, 0.6), tooth.occlusal + DVec3::new(0.3, 0.0, -1.0));
+    let rpm = dentsim_devices::DEFAULT_RPM;
     let csv = format!(
-        "t,x,y,z,qw,qx,qy,qz,rpm,cut\n0,{},{},{},1,0,0,0,200000,1\n{seconds:.3},{},{},{},1,0,0,0,200000,1\n",
+        "t,x,y,z,qw,qx,qy,qz,rpm,cut\n0,{},{},{},1,0,0,0,{rpm},1\n{seconds:.3},{},{},{},1,0,0,0,{rpm},1\n",
         a.x, a.y, a.z, b.x, b.y, b.z
     );
     let model = &tooth.model;

@@ -1,5 +1,5 @@
 //! Tissue surfaces to files ParaView and CAD tools open: VTK XML PolyData (.vtp) and binary STL.
-//! Every file is written under a temporary name and renamed, so none is ever half-written.
+//! Every file is written whole or not at all ([`dentsim_atomic`]).
 use std::io::Write;
 use std::path::Path;
 
@@ -24,26 +24,6 @@ pub fn write_model(model: &mut TissueModel, out: &Path, progress: &mut dyn FnMut
     progress("writing tissues.vdb", 1.0);
     model.save(&out.join("tissues.vdb"))?;
     Ok(triangles)
-}
-
-/// Writes `path` through `fill`; on any failure nothing is left at `path` or beside it.
-pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {
-    let file_err = |e: std::io::Error| Error::File { path: path.to_owned(), message: e.to_string() };
-    let name = path.file_name().and_then(|n| n.to_str()).ok_or_else(|| Error::File {
-        path: path.to_owned(),
-        message: "not a file path".into(),
-    })?;
-    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-    let result = (|| {
-        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
-        fill(&mut w)?;
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.map_err(file_err)
 }
 
 /// VTK XML PolyData with `Normals` per point, the tissue `Tissue` label per cell, and the
@@ -77,7 +57,7 @@ pub fn write_vtp(path: &Path, mesh: &TriMesh, tissue: &TissueProps) -> Result<()
         offset += 8 + data.len();
     }
     let (n_points, n_polys) = (mesh.points.len(), mesh.triangles.len());
-    write_atomic(path, |w| {
+    Ok(dentsim_atomic::write(path, |w| {
         writeln!(w, r#"<?xml version="1.0"?>"#)?;
         writeln!(w, r#"<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#)?;
         writeln!(w, "<PolyData>\n<FieldData>\n{}\n</FieldData>", tags[..5].join("\n"))?;
@@ -93,7 +73,7 @@ pub fn write_vtp(path: &Path, mesh: &TriMesh, tissue: &TissueProps) -> Result<()
             w.write_all(data)?;
         }
         writeln!(w, "\n</AppendedData>\n</VTKFile>")
-    })
+    })?)
 }
 
 /// Binary STL with per-facet normals from the triangles' winding.
@@ -110,7 +90,7 @@ pub fn write_stl(path: &Path, mesh: &TriMesh) -> Result<()> {
             }
         })
         .collect();
-    write_atomic(path, |w| stl_io::write_stl(&mut WriteRef(w), facets.iter()))
+    Ok(dentsim_atomic::write(path, |w| stl_io::write_stl(&mut WriteRef(w), facets.iter()))?)
 }
 
 struct WriteRef<'a>(&'a mut dyn Write);

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::burr::Burr;
 use crate::cut::Cutter;
 use crate::error::{invalid, Result};
-use crate::model::TissueModel;
+use crate::model::{TissueModel, TissueVolumes};
 use crate::phantom::CapsuleTooth;
 use crate::tissue::TissueTable;
 
@@ -26,17 +26,9 @@ impl Default for PhantomStroke {
     }
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct TissueOutcome {
-    pub name: String,
-    pub volume_before_mm3: f64,
-    pub volume_after_mm3: f64,
-    pub removed_mm3: f64,
-}
-
 pub struct Outcome {
     pub model: TissueModel,
-    pub tissues: Vec<TissueOutcome>,
+    pub tissues: Vec<TissueVolumes>,
 }
 
 impl PhantomStroke {
@@ -64,16 +56,7 @@ impl PhantomStroke {
         let pose = |p: [f64; 3]| DAffine3::from_translation(DVec3::from_array(p));
         let report = Cutter::default().cut(&mut model, &burr, pose(self.start_mm), pose(self.end_mm))?;
         progress("measuring", 0.8);
-        let tissues = before
-            .into_iter()
-            .zip(model.volumes())
-            .map(|((name, volume_before_mm3), (_, volume_after_mm3))| TissueOutcome {
-                removed_mm3: report.removed(&name),
-                name,
-                volume_before_mm3,
-                volume_after_mm3,
-            })
-            .collect();
+        let tissues = TissueVolumes::of(&model, &before, |name| report.removed(name));
         progress("done", 1.0);
         Ok(Outcome { model, tissues })
     }
