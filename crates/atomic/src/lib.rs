@@ -88,7 +88,7 @@ mod tests {
         .unwrap_err();
         assert_eq!(e.path, path);
         let text = e.to_string();
-        assert!(text.contains("a.json") && text.contains("disk on fire") && !text.contains(".tmp"), "{text}");
+        assert!(text.contains("a.json") && text.contains("disk on fire") && !text.contains(".a.json."), "{text}");
         assert_eq!(std::fs::read(&path).unwrap(), b"old");
         assert_eq!(names(dir.path()), ["a.json"]);
     }

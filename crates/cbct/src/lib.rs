@@ -138,13 +138,11 @@ pub(crate) fn check_cap(path: &Path, dims: [u64; 3], opts: &ReadOptions) -> Resu
 }
 
 /// Temporary sibling name for a folder built before it is renamed into place (files go through
-/// [`write_atomic`]).
+/// [`dentsim_atomic::write`]).
 pub(crate) fn temp_sibling(path: &Path) -> PathBuf {
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
     path.with_file_name(format!(".{name}.part{}", std::process::id()))
 }
-
-pub(crate) use dentsim_atomic::write as write_atomic;
 
 /// Unit vector, or `None` for a zero / non-finite vector.
 pub(crate) fn normalize(v: [f64; 3]) -> Option<([f64; 3], f64)> {

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use dentsim_vdb::TriMesh;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::model::TissueModel;
 use crate::tissue::TissueProps;
 

@@ -1,13 +1,12 @@
 //! Replay: redo a logged session's ticks on the tissues it started from. The tick is
 //! deterministic (session time, not wall clock; same proxy, same strokes), so the final grids
 //! equal the session's bit for bit; check with [`dentsim_vdb::LevelSet::content_hash`].
-use std::io::Write;
 use std::path::Path;
 
 use dentsim_devices::DeviceState;
 use glam::DVec3;
 
-use crate::error::{invalid, Error, Result};
+use crate::error::{invalid, Result};
 use crate::haptics::HapticCore;
 use crate::log::{SessionLog, FLAG_MISSED};
 use crate::model::TissueModel;
