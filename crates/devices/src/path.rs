@@ -367,3 +367,68 @@ impl Checker {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> std::result::Result<ToolPath, String> {
+        ToolPath::parse_csv(text, "p.csv", PathLimits::default()).map_err(|e| e.to_string())
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_accepted() {
+        let p = parse("\u{feff}t,x,y,z,qw,qx,qy,qz\n0,1,2,3,1,0,0,0\n").unwrap();
+        assert_eq!(p.samples[0].pose.translation, DVec3::new(1.0, 2.0, 3.0));
+    }
+
+    #[test]
+    fn a_duplicate_column_is_refused() {
+        let e = parse("t,x,y,z,qw,qx,qy,qz,X\n0,1,2,3,1,0,0,0,4\n").unwrap_err();
+        assert!(e.contains("p.csv header") && e.contains("'x' appears twice"), "{e}");
+    }
+
+    #[test]
+    fn times_must_strictly_increase() {
+        let e = parse("t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n0,0.1,0,0,1,0,0,0\n").unwrap_err();
+        assert!(e.contains("row 2 column t") && e.contains("stands still"), "{e}");
+    }
+
+    #[test]
+    fn near_unit_quaternions_are_normalised() {
+        let p = parse("t,x,y,z,qw,qx,qy,qz\n0,0,0,0,1.0005,0,0,0\n").unwrap();
+        let q = DQuat::from_mat3(&p.samples[0].pose.matrix3);
+        assert!((q.length() - 1.0).abs() < 1e-12 && q.w.abs() > 0.999_999, "{q}");
+    }
+
+    #[test]
+    fn rpm_must_not_be_negative_and_cut_may_be_written_as_a_number() {
+        let e = parse("t,x,y,z,qw,qx,qy,qz,rpm\n0,0,0,0,1,0,0,0,-5\n").unwrap_err();
+        assert!(e.contains("row 1 column rpm") && e.contains(">= 0"), "{e}");
+        let p = parse("t,x,y,z,qw,qx,qy,qz,cut\n0,0,0,0,1,0,0,0,1.0\n1,0,0,0,1,0,0,0,0.0\n").unwrap();
+        assert!(p.samples[0].cut && !p.samples[1].cut);
+    }
+
+    #[test]
+    fn the_pedal_and_speed_hold_from_a_sample_to_the_next_for_devices_and_segments_alike() {
+        let p = parse("t,x,y,z,qw,qx,qy,qz,rpm,cut\n0,0,0,0,1,0,0,0,100,0\n1,1,0,0,1,0,0,0,300,1\n2,2,0,0,1,0,0,0,300,0\n").unwrap();
+        let segments: Vec<(bool, Option<f64>)> = p.segments().map(|s| (s.cut, s.rpm)).collect();
+        assert_eq!(segments, [(false, Some(200.0)), (true, Some(300.0))]);
+        for (t, cut) in [(0.5, false), (1.5, true), (2.5, false)] {
+            assert_eq!(p.state_at(t).cut, cut, "t = {t}");
+        }
+        assert_eq!(p.state_at(0.5).rpm, Some(200.0));
+        assert!((p.state_at(1.25).pose.translation.x - 1.25).abs() < 1e-12);
+    }
+
+    #[test]
+    fn code_built_samples_are_checked_as_csv_rows_are() {
+        let s = |t: f64, x: f64| PathSample { t, pose: DAffine3::from_translation(DVec3::new(x, 0.0, 0.0)), rpm: None, cut: true };
+        assert_eq!(ToolPath::from_samples(&[s(0.0, 0.0), s(1.0, 1.0)], "demo", PathLimits::default()).unwrap().samples.len(), 2);
+        let e = ToolPath::from_samples(&[s(0.0, 0.0), s(1.0, 9.0)], "demo", PathLimits::default()).unwrap_err().to_string();
+        assert!(e.contains("demo sample 1") && e.contains("jumps"), "{e}");
+        let e = ToolPath::from_samples(&[s(1.0, 0.0), s(0.5, 0.1)], "demo", PathLimits::default()).unwrap_err().to_string();
+        assert!(e.contains("demo sample 1 t") && e.contains("backwards"), "{e}");
+        assert!(ToolPath::from_samples(&[], "demo", PathLimits::default()).is_err());
+    }
+}
