@@ -8,7 +8,7 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Voxel size of the tissue level sets, mm.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.05)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = dentsim_sim::model::DEFAULT_VOXEL_MM)]
     voxel: f64,
     /// Tissue table overrides (TOML).
     #[arg(long)]

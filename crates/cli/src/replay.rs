@@ -2,7 +2,8 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use dentsim_sim::headless::{replay_to_dir, REPLAY_SUMMARY_NAME};
+use dentsim_sim::export::{FORCES_CSV_NAME, FORCES_PNG_NAME, REPLAY_SUMMARY_NAME, TISSUES_NAME};
+use dentsim_sim::headless::replay_to_dir;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -32,6 +33,6 @@ pub fn run(args: &Args) -> Result<()> {
         Some(false) => unreachable!("replay_to_dir reports a mismatch as an error"),
         None => println!("no summary.json beside the log: content hashes printed above, not compared"),
     }
-    println!("wrote {} (tissues.vdb, meshes, forces.csv, forces.png, {REPLAY_SUMMARY_NAME})", args.out.display());
+    println!("wrote {} ({TISSUES_NAME}, meshes, {FORCES_CSV_NAME}, {FORCES_PNG_NAME}, {REPLAY_SUMMARY_NAME})", args.out.display());
     Ok(())
 }

@@ -12,7 +12,7 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Voxel size of the tissue level sets, mm (finer than the scan's).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = dentsim_sim::model::DEFAULT_VOXEL_MM)]
     voxel: f64,
     /// FDI (ISO 3950) number of the tooth.
     #[arg(long, default_value_t = 36)]

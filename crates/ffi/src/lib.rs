@@ -277,10 +277,10 @@ pub struct HapticSession {
 fn default_session() -> SessionParams {
     SessionParams {
         tissues_path: String::new(),
-        phantom_voxel_mm: 0.05,
+        phantom_voxel_mm: dentsim_sim::model::DEFAULT_VOXEL_MM,
         device: String::new(),
-        profile: "desktop".into(),
-        filter: "delta".into(),
+        profile: dentsim_sim::devices::DeviceProfile::DEFAULT_NAME.into(),
+        filter: dentsim_sim::filter::FilterSpec::DEFAULT_NAME.into(),
         realtime: true,
     }
 }
@@ -294,7 +294,7 @@ pub fn start_session(params: &SessionParams) -> Result<Box<HapticSession>, Strin
             profile: params.profile.clone(),
             filter: params.filter.clone(),
             realtime: params.realtime,
-            mesher_hz: 30.0,
+            mesher_hz: dentsim_sim::session::MESHER_HZ,
         };
         let live = LiveSession::start(&request).map_err(|e| e.to_string())?;
         Ok(Box::new(HapticSession { live, last: LiveState::default() }))

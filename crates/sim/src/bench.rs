@@ -345,7 +345,7 @@ pub fn loop_period(tooth: &BenchTooth, seconds: f64) -> Result<Vec<BenchRow>> {
     let path = ScriptedPath::parse(&csv, "bench path").map_err(|e| crate::error::invalid("bench path", e.to_string()))?;
     let (mut periods, mut latency) = (Vec::new(), Vec::new());
     for _ in 0..LOOP_RUNS {
-        let options = SessionOptions { realtime: true, mesher_hz: Some(30.0), log_path: None, ..Default::default() };
+        let options = SessionOptions { realtime: true, mesher_hz: Some(crate::session::MESHER_HZ), log_path: None, ..Default::default() };
         let out = run_session(model.clone(), path.clone(), options)?;
         periods.extend_from_slice(&out.periods_us);
         latency.extend(out.cut_to_visible_ms.iter().map(|m| m * 1e3));

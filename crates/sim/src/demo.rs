@@ -10,6 +10,7 @@ use serde::Serialize;
 
 use crate::burr::Burr;
 use crate::error::{invalid, Result};
+use crate::export::SUMMARY_NAME;
 use crate::model::{TissueModel, TissueVolumes};
 use crate::path::{PathLimits, PathSample, ToolPath};
 use crate::prepare::{prepare, PrepareOptions, PrepareReport};
@@ -134,6 +135,6 @@ fn path(points: &[DVec3]) -> Result<ToolPath> {
 /// Where `dentsim demo` puts its files.
 pub fn write(model: &mut TissueModel, summary: &mut DemoSummary, out: &Path, progress: &mut dyn FnMut(&str, f64)) -> Result<()> {
     summary.triangles = crate::export::write_model(model, out, progress)?;
-    let json = serde_json::to_vec_pretty(summary).map_err(|e| invalid("summary.json", e.to_string()))?;
-    Ok(dentsim_atomic::write(&out.join("summary.json"), |w| w.write_all(&json))?)
+    let json = serde_json::to_vec_pretty(summary).map_err(|e| invalid(SUMMARY_NAME, e.to_string()))?;
+    Ok(dentsim_atomic::write(&out.join(SUMMARY_NAME), |w| w.write_all(&json))?)
 }

@@ -9,8 +9,19 @@ use crate::error::Result;
 use crate::model::TissueModel;
 use crate::tissue::TissueProps;
 
+/// The files dentsim writes into an output folder (README lists them), one home for each name.
+pub const TISSUES_NAME: &str = "tissues.vdb";
+/// `dentsim session`'s binary log.
+pub const LOG_NAME: &str = "session.dslog";
+/// A session's or the demo's figures.
+pub const SUMMARY_NAME: &str = "summary.json";
+pub const REPLAY_SUMMARY_NAME: &str = "replay.json";
+pub const PREPARE_SUMMARY_NAME: &str = "prepare.json";
+pub const FORCES_CSV_NAME: &str = "forces.csv";
+pub const FORCES_PNG_NAME: &str = "forces.png";
+
 /// Writes each tissue's surface as `<tissue>.vtp` and `<tissue>.stl` and all grids as
-/// `tissues.vdb` into `out`; returns each tissue's triangle count. `progress(step, fraction)`.
+/// [`TISSUES_NAME`] into `out`; returns each tissue's triangle count. `progress(step, fraction)`.
 pub fn write_model(model: &mut TissueModel, out: &Path, progress: &mut dyn FnMut(&str, f64)) -> Result<Vec<(String, usize)>> {
     let mut triangles = Vec::new();
     let n = model.tissues.len();
@@ -21,8 +32,8 @@ pub fn write_model(model: &mut TissueModel, out: &Path, progress: &mut dyn FnMut
         write_stl(&out.join(format!("{}.stl", t.props.name)), &mesh)?;
         triangles.push((t.props.name.clone(), mesh.triangles.len()));
     }
-    progress("writing tissues.vdb", 1.0);
-    model.save(&out.join("tissues.vdb"))?;
+    progress(&format!("writing {TISSUES_NAME}"), 1.0);
+    model.save(&out.join(TISSUES_NAME))?;
     Ok(triangles)
 }
 

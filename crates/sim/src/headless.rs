@@ -11,7 +11,7 @@ use dentsim_devices::{DeviceProfile, DeviceSpec};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{invalid, Error, Result};
-use crate::export::write_model;
+use crate::export::{write_model, FORCES_CSV_NAME, FORCES_PNG_NAME, LOG_NAME, REPLAY_SUMMARY_NAME, SUMMARY_NAME};
 use crate::filter::FilterSpec;
 use crate::haptics::HapticParams;
 use crate::log::SessionLog;
@@ -21,9 +21,6 @@ use crate::replay::{replay_with_progress, write_force_csv};
 use crate::session::{Session, SessionOptions};
 use crate::tissue::TissueTable;
 
-pub const LOG_NAME: &str = "session.dslog";
-pub const SUMMARY_NAME: &str = "summary.json";
-pub const REPLAY_SUMMARY_NAME: &str = "replay.json";
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -218,8 +215,8 @@ pub fn replay_to_dir(log_path: &Path, tissues: &Path, out: &Path, progress: &mut
     let colours: Vec<[f32; 3]> = again.model.tissues.iter().map(|t| t.props.colour).collect();
     let tissues_out = write_tissues(&mut again.model, out, &before, &again.removed_mm3, &contact, progress)?;
     progress("writing forces", 1.0);
-    write_force_csv(&out.join("forces.csv"), &again.forces, &names)?;
-    plot_forces(&out.join("forces.png"), &again.forces, &colours, 1200, 500)?;
+    write_force_csv(&out.join(FORCES_CSV_NAME), &again.forces, &names)?;
+    plot_forces(&out.join(FORCES_PNG_NAME), &again.forces, &colours, 1200, 500)?;
     let hashes_match_session = session.as_ref().map(|s| {
         s.tissues.len() == tissues_out.len()
             && s.tissues.iter().zip(&tissues_out).all(|(a, b)| a.volumes.name == b.volumes.name && a.content_hash == b.content_hash)

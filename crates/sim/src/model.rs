@@ -14,6 +14,10 @@ pub struct Tissue {
     pub grid: LevelSet,
 }
 
+/// Level-set voxel size (mm) segmentation, the demo and the phantoms use unless told otherwise:
+/// fine enough for a 1 mm burr's cut to show (REFERENCE.md).
+pub const DEFAULT_VOXEL_MM: f64 = 0.05;
+
 /// One tissue's volume before and after some work (a session, a replay, a preparation) and what
 /// the work removed, mm³: the one per-tissue volume record every report and face uses (JSON
 /// field names as the README documents them).

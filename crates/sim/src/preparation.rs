@@ -22,7 +22,10 @@ pub struct PhantomStroke {
 impl Default for PhantomStroke {
     /// A groove opening at the occlusal surface and deepening through the enamel into dentin.
     fn default() -> Self {
-        PhantomStroke { voxel_size_mm: 0.05, burr_diameter_mm: 1.0, start_mm: [-2.0, 0.0, 4.2], end_mm: [1.0, 0.0, 2.9] }
+        PhantomStroke {
+            voxel_size_mm: crate::model::DEFAULT_VOXEL_MM,
+            burr_diameter_mm: crate::burr::DEFAULT_ROUND_DIAMETER_MM,
+            start_mm: [-2.0, 0.0, 4.2], end_mm: [1.0, 0.0, 2.9] }
     }
 }
 
@@ -33,9 +36,7 @@ pub struct Outcome {
 
 impl PhantomStroke {
     pub fn validate(&self) -> Result<()> {
-        if !(self.voxel_size_mm.is_finite() && (0.01..=0.5).contains(&self.voxel_size_mm)) {
-            return Err(invalid("voxel size", format!("{} mm, expected 0.01 to 0.5 mm", self.voxel_size_mm)));
-        }
+        crate::phantom::check_voxel_mm("voxel size", self.voxel_size_mm)?;
         Burr::round(self.burr_diameter_mm)?;
         for (which, p) in [("stroke start", self.start_mm), ("stroke end", self.end_mm)] {
             if p.iter().any(|v| !v.is_finite() || v.abs() > 100.0) {

@@ -9,6 +9,7 @@ use serde::Serialize;
 use crate::burr::Burr;
 use crate::cut::Cutter;
 use crate::error::Result;
+use crate::export::PREPARE_SUMMARY_NAME;
 use crate::model::{TissueModel, TissueVolumes};
 use crate::path::{PathLimits, ToolPath};
 use crate::removal::Feed;
@@ -170,8 +171,8 @@ pub fn prepare_to_dir(
         report,
         tissues: tissue_figures,
     };
-    let json = serde_json::to_vec_pretty(&summary).map_err(|e| crate::error::invalid("prepare.json", e.to_string()))?;
-    dentsim_atomic::write(&out.join("prepare.json"), |w| w.write_all(&json))?;
+    let json = serde_json::to_vec_pretty(&summary).map_err(|e| crate::error::invalid(PREPARE_SUMMARY_NAME, e.to_string()))?;
+    dentsim_atomic::write(&out.join(PREPARE_SUMMARY_NAME), |w| w.write_all(&json))?;
     Ok(summary)
 }
 
@@ -222,9 +223,7 @@ impl PreparationRequest<'_> {
         let mut model = match self.tissues {
             Some(p) => TissueModel::load(p, table)?,
             None => {
-                if !(self.phantom_voxel_mm.is_finite() && (0.01..=0.5).contains(&self.phantom_voxel_mm)) {
-                    return Err(invalid("phantom voxel size", format!("{} mm, expected 0.01 ..= 0.5", self.phantom_voxel_mm)));
-                }
+                crate::phantom::check_voxel_mm("phantom voxel size", self.phantom_voxel_mm)?;
                 crate::phantom::CapsuleTooth::default().build(self.phantom_voxel_mm, table)?
             }
         };

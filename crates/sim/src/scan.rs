@@ -33,7 +33,7 @@ pub struct ScanToTissues {
 
 impl Default for ScanToTissues {
     fn default() -> Self {
-        ScanToTissues { voxel_size_mm: 0.05, fdi: 36, seed_mm: None, bounds_mm: None, thresholds: None, margin_mm: 1.0 }
+        ScanToTissues { voxel_size_mm: crate::model::DEFAULT_VOXEL_MM, fdi: 36, seed_mm: None, bounds_mm: None, thresholds: None, margin_mm: 1.0 }
     }
 }
 

@@ -49,6 +49,9 @@ pub struct SessionOptions {
     pub raise_priority: bool,
 }
 
+/// How often a session remeshes what its cuts changed, unless told otherwise (a 30 Hz display).
+pub const MESHER_HZ: f64 = 30.0;
+
 impl Default for SessionOptions {
     fn default() -> Self {
         SessionOptions {
@@ -56,7 +59,7 @@ impl Default for SessionOptions {
             realtime: true,
             max_duration_s: 600.0,
             log_path: None,
-            mesher_hz: Some(30.0),
+            mesher_hz: Some(MESHER_HZ),
             raise_priority: true,
         }
     }
