@@ -11,9 +11,12 @@
 //! the source, the row (1 = the first data row; the header is row 0) and the column, or for a
 //! polyline the point (VTK's id, from 0) and the array.
 //!
-//! A sample's `cut` and `rpm` hold from it to the next sample (the pedal a scripted device
-//! reports there; the segment `prepare` cuts from there): [`ToolPath::state_at`] and
-//! [`ToolPath::segments`] are the one definition of what a path means between its samples.
+//! Between samples the two users still read the `cut` and `rpm` flags differently, each as its
+//! existing tests pin it: a scripted device holds a sample's pedal until the next sample
+//! ([`ToolPath::state_at`]; devices' `interpolates_position_rotation_and_speed`), while `prepare`
+//! cuts the segment *to* a sample whose flag is set ([`ToolPath::segments`]; the plugin's
+//! preparation baseline image). Both readings live here, side by side, so one decision can
+//! make them one.
 use glam::{DAffine3, DQuat, DVec3};
 
 use crate::error::{Error, Result};
@@ -47,10 +50,9 @@ impl Default for PathLimits {
 pub struct PathSample {
     pub t: f64,
     pub pose: DAffine3,
-    /// Handpiece speed from this sample to the next (linearly interpolated); `None` when the
-    /// path gives none (the user's default applies).
+    /// Handpiece speed; `None` when the path gives none (the user's default applies).
     pub rpm: Option<f64>,
-    /// Pedal down from this sample until the next: the burr cuts on the way to the next sample.
+    /// Pedal down (see the module notes for how devices and `prepare` read it between samples).
     pub cut: bool,
 }
 
@@ -74,9 +76,9 @@ pub struct Segment<'a> {
     pub index: usize,
     pub from: &'a PathSample,
     pub to: &'a PathSample,
-    /// The pedal over the segment: `from.cut`.
+    /// Whether `prepare` cuts the segment: `to.cut` ("cut on the way to this sample").
     pub cut: bool,
-    /// The mean handpiece speed over the segment (the interpolated rpm's average).
+    /// The handpiece speed `prepare` cuts the segment at: `to.rpm`.
     pub rpm: Option<f64>,
 }
 
@@ -200,8 +202,8 @@ impl ToolPath {
         }
     }
 
-    /// The pose (lerp of positions, slerp of orientations), speed (lerp) and pedal (the earlier
-    /// sample's) at `t`, held at the ends. Allocation-free (a scripted device calls it per tick).
+    /// The pose (lerp of positions, slerp of orientations), speed (lerp) and pedal (held from
+    /// the earlier sample) at `t` as a scripted device plays it, held at the ends. Allocation-free (a scripted device calls it per tick).
     pub fn state_at(&self, t: f64) -> PathState {
         let s = &self.samples;
         let Some(last) = s.last() else {
@@ -220,15 +222,9 @@ impl ToolPath {
         PathState { pose: DAffine3::from_rotation_translation(rotation, position), rpm, cut: a.cut }
     }
 
-    /// Each pair of consecutive samples with the pedal and mean speed over it.
+    /// Each pair of consecutive samples as `prepare` cuts it (see the module notes).
     pub fn segments(&self) -> impl Iterator<Item = Segment<'_>> {
-        self.samples.windows(2).enumerate().map(|(index, w)| Segment {
-            index,
-            from: &w[0],
-            to: &w[1],
-            cut: w[0].cut,
-            rpm: w[0].rpm.zip(w[1].rpm).map(|(x, y)| 0.5 * (x + y)),
-        })
+        self.samples.windows(2).enumerate().map(|(index, w)| Segment { index, from: &w[0], to: &w[1], cut: w[1].cut, rpm: w[1].rpm })
     }
 }
 
@@ -244,7 +240,7 @@ pub struct PolylineArrays<'a> {
     pub time: &'a [f64],
     /// `RPM`; absent: the user's default.
     pub rpm: &'a [f64],
-    /// `Cut` (0/1), the pedal from each point to the next; absent: every segment cuts.
+    /// `Cut` (0/1) on the way to each point from the previous; absent: every segment cuts.
     pub cut: &'a [f64],
 }
 
@@ -410,10 +406,10 @@ mod tests {
     }
 
     #[test]
-    fn the_pedal_and_speed_hold_from_a_sample_to_the_next_for_devices_and_segments_alike() {
+    fn devices_hold_the_pedal_from_a_sample_and_prepare_cuts_the_segment_to_it() {
         let p = parse("t,x,y,z,qw,qx,qy,qz,rpm,cut\n0,0,0,0,1,0,0,0,100,0\n1,1,0,0,1,0,0,0,300,1\n2,2,0,0,1,0,0,0,300,0\n").unwrap();
         let segments: Vec<(bool, Option<f64>)> = p.segments().map(|s| (s.cut, s.rpm)).collect();
-        assert_eq!(segments, [(false, Some(200.0)), (true, Some(300.0))]);
+        assert_eq!(segments, [(true, Some(300.0)), (false, Some(300.0))]);
         for (t, cut) in [(0.5, false), (1.5, true), (2.5, false)] {
             assert_eq!(p.state_at(t).cut, cut, "t = {t}");
         }

@@ -1,7 +1,7 @@
 //! Planning: cut a whole tool path into a model (what `dentsim prepare` and the plugin's
-//! "Dental Preparation" filter call). Consecutive segments with the pedal down (each begins at a
-//! sample whose `cut` flag is set, as a scripted session plays it) form strokes; each segment is
-//! one swept cut, so fast or coarse paths never tunnel.
+//! "Dental Preparation" filter call). Consecutive segments that cut (each ends at a sample whose
+//! `cut` flag is set, [`ToolPath::segments`]) form strokes; each segment is one swept cut, so fast
+//! or coarse paths never tunnel.
 use std::collections::BTreeMap;
 
 use serde::Serialize;
