@@ -21,7 +21,6 @@ use crate::replay::{replay_with_progress, write_force_csv};
 use crate::session::{Session, SessionOptions};
 use crate::tissue::TissueTable;
 
-
 /// What to run.
 #[derive(Clone, Debug)]
 pub struct SessionRequest {
