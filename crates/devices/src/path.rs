@@ -11,12 +11,12 @@
 //! the source, the row (1 = the first data row; the header is row 0) and the column, or for a
 //! polyline the point (VTK's id, from 0) and the array.
 //!
-//! Between samples the two users still read the `cut` and `rpm` flags differently, each as its
-//! existing tests pin it: a scripted device holds a sample's pedal until the next sample
-//! ([`ToolPath::state_at`]; devices' `interpolates_position_rotation_and_speed`), while `prepare`
-//! cuts the segment *to* a sample whose flag is set ([`ToolPath::segments`]; the plugin's
-//! preparation baseline image). Both readings live here, side by side, so one decision can
-//! make them one.
+//! Between samples the two users still read the `cut` and `rpm` flags differently, as they did
+//! before they shared this type: a scripted device holds a sample's pedal until the next sample
+//! ([`ToolPath::state_at`], pinned by devices' `interpolates_position_rotation_and_speed`), while
+//! `prepare` cuts the segment *to* a sample whose flag is set ([`ToolPath::segments`], as its
+//! documentation and users' files expect). Both readings live here, side by side, so one
+//! decision can make them one.
 use glam::{DAffine3, DQuat, DVec3};
 
 use crate::error::{Error, Result};
