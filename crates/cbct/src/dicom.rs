@@ -477,7 +477,7 @@ pub fn write_dicom_multiframe(vol: &Volume, file: &Path) -> Result<()> {
     let fo = o
         .with_meta(FileMetaTableBuilder::new().transfer_syntax("1.2.840.10008.1.2.1").implementation_class_uid("2.25.1"))
         .map_err(|e| Error::Dicom { path: file.to_path_buf(), message: format!("file meta: {e}") })?;
-    let tmp = crate::temp_sibling(file);
-    fo.write_to_file(&tmp).map_err(|e| Error::Dicom { path: file.to_path_buf(), message: format!("cannot write: {e}") })?;
-    std::fs::rename(&tmp, file).map_err(|e| Error::io(file, e))
+    dentsim_atomic::write_via(file, |staged| {
+        fo.write_to_file(staged).map_err(|e| Error::Dicom { path: file.to_path_buf(), message: format!("cannot write: {e}") })
+    })
 }

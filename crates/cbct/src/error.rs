@@ -5,6 +5,12 @@ use std::path::PathBuf;
 
 pub type Result<T> = std::result::Result<T, Error>;
 
+impl From<dentsim_atomic::Error> for Error {
+    fn from(e: dentsim_atomic::Error) -> Self {
+        Error::Io { path: e.path, source: e.source }
+    }
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     #[error("{path}: {source}")]

@@ -137,33 +137,11 @@ pub(crate) fn check_cap(path: &Path, dims: [u64; 3], opts: &ReadOptions) -> Resu
     usize::try_from(n.unwrap_or(u64::MAX)).map_err(|_| Error::TooLarge { path: path.to_path_buf(), bytes, cap: opts.max_bytes })
 }
 
-/// Temporary sibling name used by writers so a failure never leaves a half-written output.
+/// Temporary sibling name for a folder built before it is renamed into place (files go through
+/// [`dentsim_atomic::write`]).
 pub(crate) fn temp_sibling(path: &Path) -> PathBuf {
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
     path.with_file_name(format!(".{name}.part{}", std::process::id()))
-}
-
-/// Writes bytes produced by `fill` to `path` through a temporary file and a rename.
-pub(crate) fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn std::io::Write) -> std::io::Result<()>) -> Result<()> {
-    let tmp = temp_sibling(path);
-    let res = (|| {
-        let f = std::fs::File::create(&tmp)?;
-        let mut w = std::io::BufWriter::new(f);
-        fill(&mut w)?;
-        let f = w.into_inner().map_err(|e| e.into_error())?;
-        f.sync_all()?;
-        Ok(())
-    })();
-    match res {
-        Ok(()) => std::fs::rename(&tmp, path).map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            Error::io(path, e)
-        }),
-        Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
-            Err(Error::io(path, e))
-        }
-    }
 }
 
 /// Unit vector, or `None` for a zero / non-finite vector.

@@ -4,7 +4,7 @@
 use crate::error::{Error, Result};
 use crate::nifti::{convert, read_full};
 use crate::volume::{SourceInfo, Volume};
-use crate::{check_cap, normalize, write_atomic, ReadOptions};
+use crate::{check_cap, normalize, ReadOptions};
 use std::collections::HashMap;
 use std::io::{BufRead, Read, Seek, SeekFrom};
 use std::path::Path;
@@ -206,18 +206,18 @@ fn write_metaimage_with(vol: &Volume, path: &Path, compress: bool) -> Result<()>
     let lower = path.to_string_lossy().to_lowercase();
     if lower.ends_with(".mha") {
         let head = header_text(vol, "LOCAL", clen);
-        write_atomic(path, |w| {
+        Ok(dentsim_atomic::write(path, |w| {
             w.write_all(head.as_bytes())?;
             w.write_all(&data)
-        })
+        })?)
     } else if lower.ends_with(".mhd") {
         let raw_path = path.with_extension(if compress { "zraw" } else { "raw" });
         let raw_name = raw_path.file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
-        write_atomic(&raw_path, |w| w.write_all(&data))?;
+        dentsim_atomic::write(&raw_path, |w| w.write_all(&data))?;
         let head = header_text(vol, &raw_name, clen);
-        write_atomic(path, |w| w.write_all(head.as_bytes())).inspect_err(|_| {
+        Ok(dentsim_atomic::write(path, |w| w.write_all(head.as_bytes())).inspect_err(|_| {
             let _ = std::fs::remove_file(&raw_path);
-        })
+        })?)
     } else {
         Err(Error::invalid("path", format!("{}: expected .mha or .mhd", path.display())))
     }

@@ -4,7 +4,7 @@
 
 use crate::error::{Error, Result};
 use crate::volume::{SourceInfo, Volume};
-use crate::{check_cap, normalize, write_atomic, ReadOptions};
+use crate::{check_cap, normalize, ReadOptions};
 use flate2::read::GzDecoder;
 use std::io::Read;
 use std::path::Path;
@@ -386,7 +386,7 @@ pub fn write_nifti(vol: &Volume, path: &Path) -> Result<()> {
     }
     put(&mut h, 344, b"n+1\0");
     let gz = path.to_string_lossy().to_lowercase().ends_with(".gz");
-    write_atomic(path, |w| {
+    Ok(dentsim_atomic::write(path, |w| {
         let body = |w: &mut dyn std::io::Write| -> std::io::Result<()> {
             w.write_all(&h)?;
             let mut buf = Vec::with_capacity(1 << 20);
@@ -405,5 +405,5 @@ pub fn write_nifti(vol: &Volume, path: &Path) -> Result<()> {
         } else {
             body(w)
         }
-    })
+    })?)
 }

@@ -8,7 +8,7 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Voxel size of the tissue level sets, mm.
-    #[arg(long, allow_negative_numbers = true, default_value_t = 0.05)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = dentsim_sim::model::DEFAULT_VOXEL_MM)]
     voxel: f64,
     /// Tissue table overrides (TOML).
     #[arg(long)]
@@ -33,7 +33,7 @@ pub fn run(args: &Args) -> Result<()> {
     for t in &summary.tissues {
         println!(
             "{:<8} truth {:>8.2}  segmented {:>8.2}  after {:>8.2}  removed {:>6.3} mm³",
-            t.name, t.true_volume_mm3, t.volume_before_mm3, t.volume_after_mm3, t.removed_mm3
+            t.volumes.name, t.true_volume_mm3, t.volumes.volume_before_mm3, t.volumes.volume_after_mm3, t.volumes.removed_mm3
         );
     }
     println!("wrote {}", args.out.display());

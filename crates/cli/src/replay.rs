@@ -2,7 +2,8 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use dentsim_sim::headless::{replay_to_dir, REPLAY_SUMMARY_NAME};
+use dentsim_sim::export::{FORCES_CSV_NAME, FORCES_PNG_NAME, REPLAY_SUMMARY_NAME, TISSUES_NAME};
+use dentsim_sim::headless::replay_to_dir;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -25,13 +26,13 @@ pub fn run(args: &Args) -> Result<()> {
     bar.finish_and_clear();
     println!("{} ticks replayed; largest force difference from the log {} N", summary.ticks, summary.max_force_difference_n);
     for t in &summary.tissues {
-        println!("{:<8} removed {:>8.4} mm³  hash {}", t.name, t.removed_mm3, t.content_hash);
+        println!("{:<8} removed {:>8.4} mm³  hash {}", t.volumes.name, t.volumes.removed_mm3, t.content_hash);
     }
     match summary.hashes_match_session {
         Some(true) => println!("bit-exact: every tissue's content hash equals the session's (summary.json beside the log)"),
         Some(false) => unreachable!("replay_to_dir reports a mismatch as an error"),
         None => println!("no summary.json beside the log: content hashes printed above, not compared"),
     }
-    println!("wrote {} (tissues.vdb, meshes, forces.csv, forces.png, {REPLAY_SUMMARY_NAME})", args.out.display());
+    println!("wrote {} ({TISSUES_NAME}, meshes, {FORCES_CSV_NAME}, {FORCES_PNG_NAME}, {REPLAY_SUMMARY_NAME})", args.out.display());
     Ok(())
 }

@@ -2,7 +2,6 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use dentsim_cbct::{Label, ReadOptions};
-use dentsim_sim::export::write_atomic;
 use dentsim_sim::scan::ScanToTissues;
 
 #[derive(clap::Args)]
@@ -13,7 +12,7 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Voxel size of the tissue level sets, mm (finer than the scan's).
-    #[arg(long, default_value_t = 0.05)]
+    #[arg(long, default_value_t = dentsim_sim::model::DEFAULT_VOXEL_MM)]
     voxel: f64,
     /// FDI (ISO 3950) number of the tooth.
     #[arg(long, default_value_t = 36)]
@@ -59,7 +58,7 @@ pub fn run(args: &Args) -> Result<()> {
     model.save(&args.out)?;
     let json = serde_json::to_vec_pretty(&report)?;
     let report_path = PathBuf::from(format!("{}.json", args.out.display()));
-    write_atomic(&report_path, |w| w.write_all(&json)).with_context(|| format!("writing {}", report_path.display()))?;
+    dentsim_atomic::write(&report_path, |w| w.write_all(&json)).with_context(|| format!("writing {}", report_path.display()))?;
     bar.finish_and_clear();
     println!("calibration: {} (grey = {:.3} HU + {:.1})", report.calibration.method, report.calibration.hu_scale, report.calibration.hu_offset);
     for t in &report.tissues {

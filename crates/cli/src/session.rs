@@ -2,7 +2,10 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use dentsim_sim::headless::{run_session_to_dir, SessionRequest, LOG_NAME, SUMMARY_NAME};
+use dentsim_sim::devices::DeviceProfile;
+use dentsim_sim::export::{LOG_NAME, SUMMARY_NAME, TISSUES_NAME};
+use dentsim_sim::filter::FilterSpec;
+use dentsim_sim::headless::{run_session_to_dir, SessionRequest};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -17,10 +20,10 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Device profile: touch, omni, desktop, premium15, falcon, omega.
-    #[arg(long, default_value = "desktop")]
+    #[arg(long, default_value = DeviceProfile::DEFAULT_NAME)]
     profile: String,
     /// Force filter: delta, biquad or none.
-    #[arg(long, default_value = "delta")]
+    #[arg(long, default_value = FilterSpec::DEFAULT_NAME)]
     filter: String,
     /// Tick on the wall clock at 1 kHz (default: ticks back to back, same physics).
     #[arg(long)]
@@ -49,9 +52,9 @@ pub fn run(args: &Args) -> Result<()> {
     for t in &summary.tissues {
         println!(
             "{:<8} removed {:>8.4} mm³  contact {:>7.3} s  hash {}",
-            t.name, t.removed_mm3, t.contact_s, t.content_hash
+            t.volumes.name, t.volumes.removed_mm3, t.contact_s, t.content_hash
         );
     }
-    println!("wrote {} ({LOG_NAME}, tissues.vdb, meshes, {SUMMARY_NAME})", args.out.display());
+    println!("wrote {} ({LOG_NAME}, {TISSUES_NAME}, meshes, {SUMMARY_NAME})", args.out.display());
     Ok(())
 }

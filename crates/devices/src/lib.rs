@@ -4,6 +4,7 @@
 
 mod error;
 mod hand;
+pub mod path;
 mod profile;
 mod scripted;
 mod spec;
@@ -11,10 +12,14 @@ mod spec;
 pub use error::{Error, Result};
 pub use hand::{SimulatedHand, HandParams};
 pub use profile::DeviceProfile;
-pub use scripted::{PathRow, ScriptedPath};
+pub use path::{PathLimits, PathSample, PolylineArrays, ToolPath};
+pub use scripted::{ScriptedPath, DEFAULT_RPM};
 pub use spec::{DeviceSpec, HAND_KEYS};
 
 use glam::{DAffine3, DVec3};
+
+/// The haptic loop's period (s): 1 kHz, the rate haptic rendering needs for stiff contact.
+pub const HAPTIC_PERIOD_S: f64 = 1e-3;
 
 /// Button bit: the foot pedal / handpiece button that switches touch mode to cut mode.
 pub const BUTTON_CUT: u32 = 1;

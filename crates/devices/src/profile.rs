@@ -22,6 +22,9 @@ struct Table {
 const BUILT_IN: &str = include_str!("profiles.toml");
 
 impl DeviceProfile {
+    /// The profile sessions use unless told otherwise.
+    pub const DEFAULT_NAME: &'static str = "desktop";
+
     /// Every built-in profile (REFERENCE.md "Devices").
     pub fn all() -> Vec<DeviceProfile> {
         Self::parse(BUILT_IN, "built-in").expect("built-in device table is valid")

@@ -3,7 +3,7 @@
 //! no panic crosses: each call runs under `catch_unwind`.
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use dentsim_sim::model::Tissue;
+use dentsim_sim::model::{Tissue, TissueVolumes};
 use dentsim_sim::preparation::PhantomStroke;
 use dentsim_sim::live::{LiveRequest, LiveSession, LiveState};
 use dentsim_sim::tissue::{TissueProps, TissueTable};
@@ -236,31 +236,19 @@ pub fn prepare_tissues(
 }
 
 /// Surfaces of a cut model with each tissue's volume figures.
-fn cut_surfaces(model: &dentsim_sim::model::TissueModel, outcomes: &[dentsim_sim::preparation::TissueOutcome]) -> Result<Vec<TissueSurface>, String> {
-    model
-        .tissues
-        .iter()
-        .zip(outcomes)
-        .map(|(t, o)| surface(t, o.volume_before_mm3, o.volume_after_mm3, o.removed_mm3))
-        .collect()
+fn cut_surfaces(model: &dentsim_sim::model::TissueModel, volumes: &[TissueVolumes]) -> Result<Vec<TissueSurface>, String> {
+    model.tissues.iter().zip(volumes).map(|(t, v)| surface(t, v)).collect()
 }
 
 /// Surfaces of a model nothing has cut yet.
 fn unchanged_surfaces(model: &dentsim_sim::model::TissueModel) -> Result<Vec<TissueSurface>, String> {
-    model
-        .tissues
-        .iter()
-        .map(|t| {
-            let volume = t.grid.volume();
-            surface(t, volume, volume, 0.0)
-        })
-        .collect()
+    cut_surfaces(model, &TissueVolumes::unchanged(model))
 }
 
 /// A tissue's mesh and properties with the volumes the caller measured.
-fn surface(t: &Tissue, volume_before_mm3: f64, volume_after_mm3: f64, removed_mm3: f64) -> Result<TissueSurface, String> {
+fn surface(t: &Tissue, v: &TissueVolumes) -> Result<TissueSurface, String> {
     let mesh = dentsim_sim::mesher::surface(&t.grid).map_err(|e| e.to_string())?;
-    Ok(mesh_surface(&t.props, &mesh, volume_before_mm3, volume_after_mm3, removed_mm3))
+    Ok(mesh_surface(&t.props, &mesh, v.volume_before_mm3, v.volume_after_mm3, v.removed_mm3))
 }
 
 fn mesh_surface(p: &TissueProps, mesh: &TriMesh, volume_before_mm3: f64, volume_after_mm3: f64, removed_mm3: f64) -> TissueSurface {
@@ -290,10 +278,10 @@ pub struct HapticSession {
 fn default_session() -> SessionParams {
     SessionParams {
         tissues_path: String::new(),
-        phantom_voxel_mm: 0.05,
+        phantom_voxel_mm: dentsim_sim::model::DEFAULT_VOXEL_MM,
         device: String::new(),
-        profile: "desktop".into(),
-        filter: "delta".into(),
+        profile: dentsim_sim::devices::DeviceProfile::DEFAULT_NAME.into(),
+        filter: dentsim_sim::filter::FilterSpec::DEFAULT_NAME.into(),
         realtime: true,
     }
 }

@@ -330,14 +330,15 @@ pub fn force_query(tooth: &BenchTooth, points: usize, iterations: usize) -> Resu
 pub const LOOP_RUNS: usize = 3;
 
 /// A real-time session (1 kHz, raised priority where permitted) with a scripted device cutting
-/// down into the tooth while the mesher runs at its default rate ([`DEFAULT_MESHER_HZ`]): tick periods and cut → visible latency,
-/// pooled over [`LOOP_RUNS`] sessions on fresh copies of the tooth (the same path each time: the
+/// down into the tooth while the mesher runs at its default rate ([`DEFAULT_MESHER_HZ`]): tick
+/// periods and cut → visible latency, pooled over [`LOOP_RUNS`] sessions on fresh copies of the tooth (the same path each time: the
 /// p99.9 of one 3 s run is its third-worst period, at the mercy of a single hiccup of the machine).
 /// No peer runs these; the rows carry the goals instead.
 pub fn loop_period(tooth: &BenchTooth, seconds: f64) -> Result<Vec<BenchRow>> {
     let (a, b) = (tooth.occlusal + DVec3::new(0.0, 0.0, 0.6), tooth.occlusal + DVec3::new(0.3, 0.0, -1.0));
+    let rpm = dentsim_devices::DEFAULT_RPM;
     let csv = format!(
-        "t,x,y,z,qw,qx,qy,qz,rpm,cut\n0,{},{},{},1,0,0,0,200000,1\n{seconds:.3},{},{},{},1,0,0,0,200000,1\n",
+        "t,x,y,z,qw,qx,qy,qz,rpm,cut\n0,{},{},{},1,0,0,0,{rpm},1\n{seconds:.3},{},{},{},1,0,0,0,{rpm},1\n",
         a.x, a.y, a.z, b.x, b.y, b.z
     );
     let model = &tooth.model;

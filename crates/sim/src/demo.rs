@@ -4,13 +4,15 @@
 use std::path::Path;
 
 use dentsim_cbct::{Label, Phantom, PhantomSpec};
+use dentsim_devices::DEFAULT_RPM;
 use glam::{DAffine3, DVec3};
 use serde::Serialize;
 
 use crate::burr::Burr;
 use crate::error::{invalid, Result};
-use crate::model::TissueModel;
-use crate::path::{PathSample, ToolPath};
+use crate::export::SUMMARY_NAME;
+use crate::model::{TissueModel, TissueVolumes};
+use crate::path::{PathLimits, PathSample, ToolPath};
 use crate::prepare::{prepare, PrepareOptions, PrepareReport};
 use crate::scan::{ScanReport, ScanToTissues};
 use crate::tissue::TissueTable;
@@ -20,15 +22,14 @@ const FDI: u8 = 36;
 const DEPTH_MM: f64 = 2.0;
 /// Half the cavity's mesiodistal extent along the central groove, mm.
 const HALF_LENGTH_MM: f64 = 1.8;
-const RPM: f64 = 200_000.0;
 
+/// One tissue in the demo's `summary.json`: the phantom's true volume beside the segmented
+/// (before) and prepared (after) ones.
 #[derive(Clone, Debug, Serialize)]
 pub struct TissueOutcome {
-    pub name: String,
     pub true_volume_mm3: f64,
-    pub volume_before_mm3: f64,
-    pub volume_after_mm3: f64,
-    pub removed_mm3: f64,
+    #[serde(flatten)]
+    pub volumes: TissueVolumes,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -58,7 +59,7 @@ pub fn run(voxel_size_mm: f64, table: &TissueTable, progress: &mut dyn FnMut(&st
     let round = Burr::parse("round:1.0")?;
     let cylinder = Burr::parse("cylinder_flat:1.0:4")?;
     let floor = fossa - DVec3::Z * DEPTH_MM;
-    let access = path(&[fossa + DVec3::Z, floor + DVec3::Z * 0.2, floor - axis * 0.5 + DVec3::Z * 0.2, floor + axis * 0.5 + DVec3::Z * 0.2]);
+    let access = path(&[fossa + DVec3::Z, floor + DVec3::Z * 0.2, floor - axis * 0.5 + DVec3::Z * 0.2, floor + axis * 0.5 + DVec3::Z * 0.2])?;
     let extension = path(&[
         fossa + DVec3::Z,
         floor,
@@ -66,20 +67,18 @@ pub fn run(voxel_size_mm: f64, table: &TissueTable, progress: &mut dyn FnMut(&st
         floor + axis * HALF_LENGTH_MM,
         floor,
         fossa + DVec3::Z,
-    ]);
+    ])?;
     progress("cutting with a round burr", 0.7);
     let mut preparation = vec![prepare(&mut model, &access, &round, &PrepareOptions::default())?];
     progress("cutting with a flat-end cylinder", 0.8);
     preparation.push(prepare(&mut model, &extension, &cylinder, &PrepareOptions::default())?);
 
-    let tissues = model
-        .tissues
-        .iter()
-        .zip(before)
-        .map(|(t, (name, volume_before_mm3))| {
-            let removed_mm3 = preparation.iter().map(|r| r.removed_mm3.get(&name).copied().unwrap_or(0.0)).sum();
-            let true_volume_mm3 = Label::from_name(&name).map_or(f64::NAN, |l| phantom.tooth_volumes_mm3(FDI)[l as usize]);
-            TissueOutcome { name, true_volume_mm3, volume_before_mm3, volume_after_mm3: t.grid.volume(), removed_mm3 }
+    let removed = |name: &str| preparation.iter().map(|r| r.removed_mm3.get(name).copied().unwrap_or(0.0)).sum();
+    let tissues = TissueVolumes::of(&model, &before, removed)
+        .into_iter()
+        .map(|volumes| {
+            let true_volume_mm3 = Label::from_name(&volumes.name).map_or(f64::NAN, |l| phantom.tooth_volumes_mm3(FDI)[l as usize]);
+            TissueOutcome { true_volume_mm3, volumes }
         })
         .collect();
     progress("done", 0.9);
@@ -119,22 +118,23 @@ fn fossa_and_axis(phantom: &Phantom, model: &TissueModel) -> Result<(DVec3, DVec
     Err(invalid("demo", "found no occlusal enamel above the tooth's seed"))
 }
 
-/// An upright burr (axis +Z) moving through `points` at 2 mm/s, cutting throughout.
-fn path(points: &[DVec3]) -> ToolPath {
+/// An upright burr (axis +Z) moving through `points` at 2 mm/s, cutting throughout; checked as
+/// a CSV path is.
+fn path(points: &[DVec3]) -> Result<ToolPath> {
     let mut t = 0.0;
     let mut samples = Vec::new();
     for (i, &p) in points.iter().enumerate() {
         if i > 0 {
             t += (p - points[i - 1]).length() / 2.0;
         }
-        samples.push(PathSample { t, pose: DAffine3::from_translation(p), rpm: Some(RPM), cut: true });
+        samples.push(PathSample { t, pose: DAffine3::from_translation(p), rpm: Some(DEFAULT_RPM), cut: true });
     }
-    ToolPath { samples }
+    Ok(ToolPath::from_samples(&samples, "demo path", PathLimits::default())?)
 }
 
 /// Where `dentsim demo` puts its files.
 pub fn write(model: &mut TissueModel, summary: &mut DemoSummary, out: &Path, progress: &mut dyn FnMut(&str, f64)) -> Result<()> {
     summary.triangles = crate::export::write_model(model, out, progress)?;
-    let json = serde_json::to_vec_pretty(summary).map_err(|e| invalid("summary.json", e.to_string()))?;
-    crate::export::write_atomic(&out.join("summary.json"), |w| w.write_all(&json))
+    let json = serde_json::to_vec_pretty(summary).map_err(|e| invalid(SUMMARY_NAME, e.to_string()))?;
+    Ok(dentsim_atomic::write(&out.join(SUMMARY_NAME), |w| w.write_all(&json))?)
 }

@@ -4,6 +4,9 @@ use std::path::PathBuf;
 pub enum Error {
     #[error(transparent)]
     Vdb(#[from] dentsim_vdb::Error),
+    /// A device or tool path error (it names the file, row and column).
+    #[error(transparent)]
+    Device(#[from] dentsim_devices::Error),
     #[error("{}: {message}", path.display())]
     File { path: PathBuf, message: String },
     #[error("tissue table {source_name}: {message}")]
@@ -13,6 +16,12 @@ pub enum Error {
 }
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl From<dentsim_atomic::Error> for Error {
+    fn from(e: dentsim_atomic::Error) -> Self {
+        Error::File { path: e.path, message: e.source.to_string() }
+    }
+}
 
 pub(crate) fn invalid(what: impl Into<String>, message: impl Into<String>) -> Error {
     Error::Invalid { what: what.into(), message: message.into() }

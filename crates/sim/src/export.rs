@@ -1,16 +1,27 @@
 //! Tissue surfaces to files ParaView and CAD tools open: VTK XML PolyData (.vtp) and binary STL.
-//! Every file is written under a temporary name and renamed, so none is ever half-written.
+//! Every file is written whole or not at all ([`dentsim_atomic`]).
 use std::io::Write;
 use std::path::Path;
 
 use dentsim_vdb::TriMesh;
 
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::model::TissueModel;
 use crate::tissue::TissueProps;
 
+/// The files dentsim writes into an output folder (README lists them), one home for each name.
+pub const TISSUES_NAME: &str = "tissues.vdb";
+/// `dentsim session`'s binary log.
+pub const LOG_NAME: &str = "session.dslog";
+/// A session's or the demo's figures.
+pub const SUMMARY_NAME: &str = "summary.json";
+pub const REPLAY_SUMMARY_NAME: &str = "replay.json";
+pub const PREPARE_SUMMARY_NAME: &str = "prepare.json";
+pub const FORCES_CSV_NAME: &str = "forces.csv";
+pub const FORCES_PNG_NAME: &str = "forces.png";
+
 /// Writes each tissue's surface as `<tissue>.vtp` and `<tissue>.stl` and all grids as
-/// `tissues.vdb` into `out`; returns each tissue's triangle count. `progress(step, fraction)`.
+/// [`TISSUES_NAME`] into `out`; returns each tissue's triangle count. `progress(step, fraction)`.
 pub fn write_model(model: &mut TissueModel, out: &Path, progress: &mut dyn FnMut(&str, f64)) -> Result<Vec<(String, usize)>> {
     let mut triangles = Vec::new();
     let n = model.tissues.len();
@@ -21,29 +32,9 @@ pub fn write_model(model: &mut TissueModel, out: &Path, progress: &mut dyn FnMut
         write_stl(&out.join(format!("{}.stl", t.props.name)), &mesh)?;
         triangles.push((t.props.name.clone(), mesh.triangles.len()));
     }
-    progress("writing tissues.vdb", 1.0);
-    model.save(&out.join("tissues.vdb"))?;
+    progress(&format!("writing {TISSUES_NAME}"), 1.0);
+    model.save(&out.join(TISSUES_NAME))?;
     Ok(triangles)
-}
-
-/// Writes `path` through `fill`; on any failure nothing is left at `path` or beside it.
-pub fn write_atomic(path: &Path, fill: impl FnOnce(&mut dyn Write) -> std::io::Result<()>) -> Result<()> {
-    let file_err = |e: std::io::Error| Error::File { path: path.to_owned(), message: e.to_string() };
-    let name = path.file_name().and_then(|n| n.to_str()).ok_or_else(|| Error::File {
-        path: path.to_owned(),
-        message: "not a file path".into(),
-    })?;
-    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
-    let result = (|| {
-        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp)?);
-        fill(&mut w)?;
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.map_err(file_err)
 }
 
 /// VTK XML PolyData with `Normals` per point, the tissue `Tissue` label per cell, and the
@@ -77,7 +68,7 @@ pub fn write_vtp(path: &Path, mesh: &TriMesh, tissue: &TissueProps) -> Result<()
         offset += 8 + data.len();
     }
     let (n_points, n_polys) = (mesh.points.len(), mesh.triangles.len());
-    write_atomic(path, |w| {
+    Ok(dentsim_atomic::write(path, |w| {
         writeln!(w, r#"<?xml version="1.0"?>"#)?;
         writeln!(w, r#"<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#)?;
         writeln!(w, "<PolyData>\n<FieldData>\n{}\n</FieldData>", tags[..5].join("\n"))?;
@@ -93,7 +84,7 @@ pub fn write_vtp(path: &Path, mesh: &TriMesh, tissue: &TissueProps) -> Result<()
             w.write_all(data)?;
         }
         writeln!(w, "\n</AppendedData>\n</VTKFile>")
-    })
+    })?)
 }
 
 /// Binary STL with per-facet normals from the triangles' winding.
@@ -110,7 +101,7 @@ pub fn write_stl(path: &Path, mesh: &TriMesh) -> Result<()> {
             }
         })
         .collect();
-    write_atomic(path, |w| stl_io::write_stl(&mut WriteRef(w), facets.iter()))
+    Ok(dentsim_atomic::write(path, |w| stl_io::write_stl(&mut WriteRef(w), facets.iter()))?)
 }
 
 struct WriteRef<'a>(&'a mut dyn Write);

@@ -54,6 +54,9 @@ impl Biquad {
 }
 
 impl FilterSpec {
+    /// The preset sessions use unless told otherwise ([`FilterSpec::default_delta`]).
+    pub const DEFAULT_NAME: &'static str = "delta";
+
     /// The default: seed 002's delta limiter at 0.05 N per tick (50 N/s: a 1 N contact builds up
     /// in 20 ms, a hard wall still feels hard).
     pub fn default_delta() -> Self {

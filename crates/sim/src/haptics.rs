@@ -65,14 +65,14 @@ pub struct HapticParams {
 impl Default for HapticParams {
     fn default() -> Self {
         HapticParams {
-            burr_diameter_mm: 1.0,
+            burr_diameter_mm: crate::burr::DEFAULT_ROUND_DIAMETER_MM,
             samples: 256,
-            profile: DeviceProfile::named("desktop").expect("built-in profile"),
+            profile: DeviceProfile::named(DeviceProfile::DEFAULT_NAME).expect("built-in profile"),
             filter: FilterSpec::default_delta(),
-            period_s: 1e-3,
+            period_s: dentsim_devices::HAPTIC_PERIOD_S,
             max_step_mm: 0.05,
             axis_point_mm: 19.0,
-            reference_rpm: 200_000.0,
+            reference_rpm: crate::removal::REFERENCE_RPM,
             cut_interval_ticks: 1,
             watchdog: WatchdogParams::default(),
         }

@@ -11,19 +11,15 @@ use dentsim_devices::{DeviceProfile, DeviceSpec};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{invalid, Error, Result};
-use crate::export::{write_atomic, write_model};
+use crate::export::{write_model, FORCES_CSV_NAME, FORCES_PNG_NAME, LOG_NAME, REPLAY_SUMMARY_NAME, SUMMARY_NAME};
 use crate::filter::FilterSpec;
 use crate::haptics::HapticParams;
 use crate::log::SessionLog;
-use crate::model::TissueModel;
+use crate::model::{TissueModel, TissueVolumes};
 use crate::plot::plot_forces;
 use crate::replay::{replay_with_progress, write_force_csv};
 use crate::session::{Session, SessionOptions};
 use crate::tissue::TissueTable;
-
-pub const LOG_NAME: &str = "session.dslog";
-pub const SUMMARY_NAME: &str = "summary.json";
-pub const REPLAY_SUMMARY_NAME: &str = "replay.json";
 
 /// What to run.
 #[derive(Clone, Debug)]
@@ -42,11 +38,10 @@ pub struct SessionRequest {
 /// One tissue's figures after a session or replay.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TissueSummary {
-    pub name: String,
-    pub volume_before_mm3: f64,
-    pub volume_after_mm3: f64,
-    /// Removed by the session's cuts (sum of the cut reports), mm³.
-    pub removed_mm3: f64,
+    /// Removed: for a session the volume at the start less at the end; for a replay the sum of
+    /// the replayed ticks' measured cuts.
+    #[serde(flatten)]
+    pub volumes: TissueVolumes,
     /// Session time the burr spent in contact with this tissue (s).
     pub contact_s: f64,
     /// [`dentsim_vdb::LevelSet::content_hash`] of the final grid, hex: equal hashes = same grid.
@@ -116,15 +111,13 @@ fn write_tissues(
     progress: &mut dyn FnMut(&str, f64),
 ) -> Result<Vec<TissueSummary>> {
     let triangles = write_model(model, out, progress)?;
-    let tissues = model
-        .tissues
-        .iter()
+    let removed = |name: &str| removed.iter().find(|(n, _)| n == name).map_or(0.0, |r| r.1);
+    let tissues = TissueVolumes::of(model, before, removed)
+        .into_iter()
+        .zip(&model.tissues)
         .enumerate()
-        .map(|(i, t)| TissueSummary {
-            name: t.props.name.clone(),
-            volume_before_mm3: before.get(i).map_or(f64::NAN, |b| b.1),
-            volume_after_mm3: t.grid.volume(),
-            removed_mm3: removed.get(i).map_or(0.0, |r| r.1),
+        .map(|(i, (volumes, t))| TissueSummary {
+            volumes,
             contact_s: contact_s.get(i).copied().unwrap_or(0.0),
             content_hash: hex(t.grid.content_hash()),
             triangles: triangles[i].1,
@@ -135,7 +128,7 @@ fn write_tissues(
 
 fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
     let json = serde_json::to_vec_pretty(value).map_err(|e| invalid("summary", e.to_string()))?;
-    write_atomic(path, |w| w.write_all(&json))
+    Ok(dentsim_atomic::write(path, |w| w.write_all(&json))?)
 }
 
 /// Runs a headless session and writes `session.dslog`, `tissues.vdb`, `<tissue>.vtp/.stl` and
@@ -150,37 +143,29 @@ pub fn run_session_to_dir(req: &SessionRequest, progress: &mut dyn FnMut(&str, f
     let before = model.volumes();
 
     create_dir(&req.out)?;
-    let log_path = req.out.join(LOG_NAME);
-    let tmp_log = req.out.join(format!(".{LOG_NAME}.{}.tmp", std::process::id()));
-    let options = SessionOptions {
-        params: params.clone(),
-        realtime: req.realtime,
-        max_duration_s: (duration_s + 1.0).max(1.0),
-        log_path: Some(tmp_log.clone()),
-        mesher_hz: None,
-        raise_priority: req.realtime,
-        ..SessionOptions::default()
-    };
-    let run = || -> Result<_> {
+    let period = params.period_s;
+    // The log is staged until the tissues are written too: a failed session leaves none.
+    let (outcome, tissues) = dentsim_atomic::write_via(&req.out.join(LOG_NAME), |staged_log| -> Result<_> {
+        let options = SessionOptions {
+            params: params.clone(),
+            realtime: req.realtime,
+            max_duration_s: (duration_s + 1.0).max(1.0),
+            log_path: Some(staged_log.to_owned()),
+            mesher_hz: None,
+            raise_priority: req.realtime,
+            ..SessionOptions::default()
+        };
         let session = Session::start(model, device, options)?;
         while session.is_running() {
             let t = session.latest().map_or(0.0, |r| r.t_s);
             progress("session", (t / duration_s.max(1e-3)).clamp(0.0, 1.0));
             std::thread::sleep(Duration::from_millis(20));
         }
-        session.stop()
-    };
-    let mut outcome = match run() {
-        Ok(o) => o,
-        Err(e) => {
-            let _ = std::fs::remove_file(&tmp_log);
-            return Err(e);
-        }
-    };
-    let period = params.period_s;
-    let contact_s: Vec<f64> = outcome.contact_ticks.iter().map(|(_, t)| *t as f64 * period).collect();
-    let tissues = write_tissues(&mut outcome.model, &req.out, &before, &outcome.removed_mm3, &contact_s, progress)?;
-    std::fs::rename(&tmp_log, &log_path).map_err(|e| Error::File { path: log_path.clone(), message: e.to_string() })?;
+        let mut outcome = session.stop()?;
+        let contact_s: Vec<f64> = outcome.contact_ticks.iter().map(|(_, t)| *t as f64 * period).collect();
+        let tissues = write_tissues(&mut outcome.model, &req.out, &before, &outcome.removed_mm3, &contact_s, progress)?;
+        Ok((outcome, tissues))
+    })?;
     let summary = SessionSummary {
         dentsim_version: env!("CARGO_PKG_VERSION").into(),
         tissues_file: req.tissues.display().to_string(),
@@ -230,11 +215,11 @@ pub fn replay_to_dir(log_path: &Path, tissues: &Path, out: &Path, progress: &mut
     let colours: Vec<[f32; 3]> = again.model.tissues.iter().map(|t| t.props.colour).collect();
     let tissues_out = write_tissues(&mut again.model, out, &before, &again.removed_mm3, &contact, progress)?;
     progress("writing forces", 1.0);
-    write_force_csv(&out.join("forces.csv"), &again.forces, &names)?;
-    plot_forces(&out.join("forces.png"), &again.forces, &colours, 1200, 500)?;
+    write_force_csv(&out.join(FORCES_CSV_NAME), &again.forces, &names)?;
+    plot_forces(&out.join(FORCES_PNG_NAME), &again.forces, &colours, 1200, 500)?;
     let hashes_match_session = session.as_ref().map(|s| {
         s.tissues.len() == tissues_out.len()
-            && s.tissues.iter().zip(&tissues_out).all(|(a, b)| a.name == b.name && a.content_hash == b.content_hash)
+            && s.tissues.iter().zip(&tissues_out).all(|(a, b)| a.volumes.name == b.volumes.name && a.content_hash == b.content_hash)
     });
     let summary = ReplaySummary {
         log: log_path.display().to_string(),

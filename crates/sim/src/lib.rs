@@ -33,3 +33,5 @@ pub mod tissue;
 pub mod watchdog;
 
 pub use error::{Error, Result};
+/// The devices crate, for the faces (CLI, plugin) that name a device profile or tool path.
+pub use dentsim_devices as devices;

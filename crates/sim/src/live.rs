@@ -84,9 +84,7 @@ impl LiveSession {
         let model = match &req.tissues {
             Some(path) => TissueModel::load(path, &table)?,
             None => {
-                if !(req.phantom_voxel_mm.is_finite() && (0.01..=0.5).contains(&req.phantom_voxel_mm)) {
-                    return Err(invalid("phantom voxel size", format!("{} mm, expected 0.01 ..= 0.5", req.phantom_voxel_mm)));
-                }
+                crate::phantom::check_voxel_mm("phantom voxel size", req.phantom_voxel_mm)?;
                 CapsuleTooth::default().build(req.phantom_voxel_mm, &table)?
             }
         };

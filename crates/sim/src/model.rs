@@ -3,6 +3,7 @@ use std::path::Path;
 
 use dentsim_vdb::{LevelSet, MetaValue};
 use glam::Vec3;
+use serde::{Deserialize, Serialize};
 
 use crate::error::{invalid, Error, Result};
 use crate::tissue::{TissueProps, TissueTable};
@@ -11,6 +12,47 @@ use crate::tissue::{TissueProps, TissueTable};
 pub struct Tissue {
     pub props: TissueProps,
     pub grid: LevelSet,
+}
+
+/// Level-set voxel size (mm) segmentation, the demo and the phantoms use unless told otherwise:
+/// fine enough for a 1 mm burr's cut to show (REFERENCE.md).
+pub const DEFAULT_VOXEL_MM: f64 = 0.05;
+
+/// One tissue's volume before and after some work (a session, a replay, a preparation) and what
+/// the work removed, mm³: the one per-tissue volume record every report and face uses (JSON
+/// field names as the README documents them).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TissueVolumes {
+    pub name: String,
+    pub volume_before_mm3: f64,
+    pub volume_after_mm3: f64,
+    pub removed_mm3: f64,
+}
+
+impl TissueVolumes {
+    /// Each tissue of `model` as it is now, against its volume in `before` (from
+    /// [`TissueModel::volumes`]; NaN when absent) and `removed(name)`.
+    pub fn of(model: &TissueModel, before: &[(String, f64)], removed: impl Fn(&str) -> f64) -> Vec<TissueVolumes> {
+        model
+            .tissues
+            .iter()
+            .map(|t| {
+                let name = t.props.name.clone();
+                TissueVolumes {
+                    volume_before_mm3: before.iter().find(|(n, _)| *n == name).map_or(f64::NAN, |b| b.1),
+                    volume_after_mm3: t.grid.volume(),
+                    removed_mm3: removed(&name),
+                    name,
+                }
+            })
+            .collect()
+    }
+
+    /// Each tissue of a model nothing has cut.
+    pub fn unchanged(model: &TissueModel) -> Vec<TissueVolumes> {
+        let volumes = model.volumes().into_iter();
+        volumes.map(|(name, v)| TissueVolumes { name, volume_before_mm3: v, volume_after_mm3: v, removed_mm3: 0.0 }).collect()
+    }
 }
 
 /// Every tissue's grid shares one transform (voxel size, origin at world zero).

@@ -13,9 +13,8 @@ pub fn plot_forces(path: &Path, forces: &[ForceSample], colours: &[[f32; 3]], wi
     let err = |m: String| Error::File { path: path.to_owned(), message: m };
     let t_end = forces.last().map_or(1.0, |s| s.t_s).max(1e-3);
     let f_max = forces.iter().map(|s| s.force.length()).fold(0.0, f64::max).max(0.1) * 1.1;
-    let tmp = path.with_extension("png.tmp.png");
-    {
-        let root = BitMapBackend::new(&tmp, (width.max(64), height.max(64))).into_drawing_area();
+    dentsim_atomic::write_via(path, |tmp| -> Result<()> {
+        let root = BitMapBackend::new(tmp, (width.max(64), height.max(64))).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
         let (w, h) = (width.max(64) as i32, height.max(64) as i32);
         let margin = 20;
@@ -49,7 +48,6 @@ pub fn plot_forces(path: &Path, forces: &[ForceSample], colours: &[[f32; 3]], wi
             root.draw(&Rectangle::new([(x0, h - margin - band), (x1, h - margin)], colour.filled()))
                 .map_err(|e| err(e.to_string()))?;
         }
-        root.present().map_err(|e| err(e.to_string()))?;
-    }
-    std::fs::rename(&tmp, path).map_err(|e| err(e.to_string()))
+        root.present().map_err(|e| err(e.to_string()))
+    })
 }

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::burr::Burr;
 use crate::cut::Cutter;
 use crate::error::{invalid, Result};
-use crate::model::TissueModel;
+use crate::model::{TissueModel, TissueVolumes};
 use crate::phantom::CapsuleTooth;
 use crate::tissue::TissueTable;
 
@@ -22,28 +22,21 @@ pub struct PhantomStroke {
 impl Default for PhantomStroke {
     /// A groove opening at the occlusal surface and deepening through the enamel into dentin.
     fn default() -> Self {
-        PhantomStroke { voxel_size_mm: 0.05, burr_diameter_mm: 1.0, start_mm: [-2.0, 0.0, 4.2], end_mm: [1.0, 0.0, 2.9] }
+        PhantomStroke {
+            voxel_size_mm: crate::model::DEFAULT_VOXEL_MM,
+            burr_diameter_mm: crate::burr::DEFAULT_ROUND_DIAMETER_MM,
+            start_mm: [-2.0, 0.0, 4.2], end_mm: [1.0, 0.0, 2.9] }
     }
-}
-
-#[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct TissueOutcome {
-    pub name: String,
-    pub volume_before_mm3: f64,
-    pub volume_after_mm3: f64,
-    pub removed_mm3: f64,
 }
 
 pub struct Outcome {
     pub model: TissueModel,
-    pub tissues: Vec<TissueOutcome>,
+    pub tissues: Vec<TissueVolumes>,
 }
 
 impl PhantomStroke {
     pub fn validate(&self) -> Result<()> {
-        if !(self.voxel_size_mm.is_finite() && (0.01..=0.5).contains(&self.voxel_size_mm)) {
-            return Err(invalid("voxel size", format!("{} mm, expected 0.01 to 0.5 mm", self.voxel_size_mm)));
-        }
+        crate::phantom::check_voxel_mm("voxel size", self.voxel_size_mm)?;
         Burr::round(self.burr_diameter_mm)?;
         for (which, p) in [("stroke start", self.start_mm), ("stroke end", self.end_mm)] {
             if p.iter().any(|v| !v.is_finite() || v.abs() > 100.0) {
@@ -64,16 +57,7 @@ impl PhantomStroke {
         let pose = |p: [f64; 3]| DAffine3::from_translation(DVec3::from_array(p));
         let report = Cutter::default().cut(&mut model, &burr, pose(self.start_mm), pose(self.end_mm))?;
         progress("measuring", 0.8);
-        let tissues = before
-            .into_iter()
-            .zip(model.volumes())
-            .map(|((name, volume_before_mm3), (_, volume_after_mm3))| TissueOutcome {
-                removed_mm3: report.removed(&name),
-                name,
-                volume_before_mm3,
-                volume_after_mm3,
-            })
-            .collect();
+        let tissues = TissueVolumes::of(&model, &before, |name| report.removed(name));
         progress("done", 1.0);
         Ok(Outcome { model, tissues })
     }

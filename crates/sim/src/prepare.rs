@@ -1,6 +1,7 @@
 //! Planning: cut a whole tool path into a model (what `dentsim prepare` and the plugin's
-//! "Dental Preparation" filter call). Consecutive samples whose `cut` flag is set form strokes;
-//! each path segment is one swept cut, so fast or coarse paths never tunnel.
+//! "Dental Preparation" filter call). Consecutive segments that cut (each ends at a sample whose
+//! `cut` flag is set, [`ToolPath::segments`]) form strokes; each segment is one swept cut, so fast
+//! or coarse paths never tunnel.
 use std::collections::BTreeMap;
 
 use serde::Serialize;
@@ -8,8 +9,9 @@ use serde::Serialize;
 use crate::burr::Burr;
 use crate::cut::Cutter;
 use crate::error::Result;
-use crate::model::TissueModel;
-use crate::path::ToolPath;
+use crate::export::PREPARE_SUMMARY_NAME;
+use crate::model::{TissueModel, TissueVolumes};
+use crate::path::{PathLimits, ToolPath};
 use crate::removal::Feed;
 
 /// How to cut along the path.
@@ -69,9 +71,9 @@ pub fn prepare_with_progress(
     }
     let n = path.samples.len();
     let mut open: Option<StrokeSummary> = None;
-    for (i, w) in path.samples.windows(2).enumerate() {
-        let (a, b) = (&w[0], &w[1]);
-        if !b.cut {
+    for seg in path.segments() {
+        let (a, b, i) = (seg.from, seg.to, seg.index);
+        if !seg.cut {
             if let Some(s) = open.take() {
                 cutter.end_stroke();
                 report.strokes.push(s);
@@ -92,7 +94,7 @@ pub fn prepare_with_progress(
         });
         let feed = match options.force_n {
             None => Feed::Geometric,
-            Some(force_n) => Feed::Limited { force_n, rpm: b.rpm.unwrap_or(options.default_rpm), dt_s: b.t - a.t },
+            Some(force_n) => Feed::Limited { force_n, rpm: seg.rpm.unwrap_or(options.default_rpm), dt_s: b.t - a.t },
         };
         let r = cutter.cut_with(model, burr, a.pose, b.pose, feed)?;
         for (name, v) in &r.removed_mm3 {
@@ -126,11 +128,11 @@ pub struct PrepareSummary {
     pub tissues: Vec<TissueFigures>,
 }
 
+/// One tissue in `prepare.json`: its volumes and its surface's triangle count.
 #[derive(Clone, Debug, Serialize)]
 pub struct TissueFigures {
-    pub name: String,
-    pub volume_before_mm3: f64,
-    pub volume_after_mm3: f64,
+    #[serde(flatten)]
+    pub volumes: TissueVolumes,
     pub triangles: usize,
 }
 
@@ -147,7 +149,7 @@ pub fn prepare_to_dir(
     progress: &mut dyn FnMut(&str, f64),
 ) -> Result<PrepareSummary> {
     let burr = Burr::parse(burr_spec)?;
-    let tool_path = ToolPath::read(path, crate::path::PathLimits::default())?;
+    let tool_path = ToolPath::read(path, PathLimits::default())?;
     let mut model = TissueModel::load(tissues, table)?;
     if model.tissues.is_empty() {
         return Err(crate::Error::File { path: tissues.to_owned(), message: "holds no tissue grids".into() });
@@ -157,17 +159,10 @@ pub fn prepare_to_dir(
     let report = prepare_with_progress(&mut model, &tool_path, &burr, options, &mut |f| progress("cutting", 0.8 * f))?;
     std::fs::create_dir_all(out).map_err(|e| crate::Error::File { path: out.to_owned(), message: e.to_string() })?;
     let triangles = crate::export::write_model(&mut model, out, &mut |step, f| progress(step, 0.8 + 0.2 * f))?;
-    let tissue_figures = model
-        .tissues
-        .iter()
-        .zip(before)
+    let tissue_figures = TissueVolumes::of(&model, &before, |name| report.removed_mm3.get(name).copied().unwrap_or(0.0))
+        .into_iter()
         .zip(triangles)
-        .map(|((t, (name, volume_before_mm3)), (_, triangles))| TissueFigures {
-            name,
-            volume_before_mm3,
-            volume_after_mm3: t.grid.volume(),
-            triangles,
-        })
+        .map(|(volumes, (_, triangles))| TissueFigures { volumes, triangles })
         .collect();
     let summary = PrepareSummary {
         tissues_file: tissues.display().to_string(),
@@ -176,8 +171,8 @@ pub fn prepare_to_dir(
         report,
         tissues: tissue_figures,
     };
-    let json = serde_json::to_vec_pretty(&summary).map_err(|e| crate::error::invalid("prepare.json", e.to_string()))?;
-    crate::export::write_atomic(&out.join("prepare.json"), |w| w.write_all(&json))?;
+    let json = serde_json::to_vec_pretty(&summary).map_err(|e| crate::error::invalid(PREPARE_SUMMARY_NAME, e.to_string()))?;
+    dentsim_atomic::write(&out.join(PREPARE_SUMMARY_NAME), |w| w.write_all(&json))?;
     Ok(summary)
 }
 
@@ -207,7 +202,7 @@ pub struct PreparationRequest<'a> {
 /// The prepared model, each tissue's volumes, and the path's report.
 pub struct Prepared {
     pub model: TissueModel,
-    pub tissues: Vec<crate::preparation::TissueOutcome>,
+    pub tissues: Vec<TissueVolumes>,
     pub report: PrepareReport,
 }
 
@@ -220,7 +215,7 @@ impl PreparationRequest<'_> {
             return Err(invalid("force", format!("{} N, expected 0 (geometric) or a positive force", self.force_n)));
         }
         let burr = Burr::parse(self.burr)?;
-        let limits = crate::path::PathLimits::default();
+        let limits = PathLimits::default();
         let path = match self.path {
             PathSource::Csv(p) => ToolPath::read(p, limits)?,
             PathSource::Polyline(a) => ToolPath::from_polyline(&a, "tool path", limits)?,
@@ -228,25 +223,14 @@ impl PreparationRequest<'_> {
         let mut model = match self.tissues {
             Some(p) => TissueModel::load(p, table)?,
             None => {
-                if !(self.phantom_voxel_mm.is_finite() && (0.01..=0.5).contains(&self.phantom_voxel_mm)) {
-                    return Err(invalid("phantom voxel size", format!("{} mm, expected 0.01 ..= 0.5", self.phantom_voxel_mm)));
-                }
+                crate::phantom::check_voxel_mm("phantom voxel size", self.phantom_voxel_mm)?;
                 crate::phantom::CapsuleTooth::default().build(self.phantom_voxel_mm, table)?
             }
         };
         let before = model.volumes();
         let options = PrepareOptions { force_n: (self.force_n > 0.0).then_some(self.force_n), ..Default::default() };
         let report = prepare(&mut model, &path, &burr, &options)?;
-        let tissues = before
-            .into_iter()
-            .zip(model.volumes())
-            .map(|((name, volume_before_mm3), (_, volume_after_mm3))| crate::preparation::TissueOutcome {
-                removed_mm3: report.removed_mm3.get(&name).copied().unwrap_or(0.0),
-                name,
-                volume_before_mm3,
-                volume_after_mm3,
-            })
-            .collect();
+        let tissues = TissueVolumes::of(&model, &before, |name| report.removed_mm3.get(name).copied().unwrap_or(0.0));
         Ok(Prepared { model, tissues, report })
     }
 }

@@ -8,9 +8,10 @@
 //! carries over, so even a tiny budget makes steady progress. An unlimited feed (`Feed::geometric`)
 //! cuts the whole swept volume, as planning does.
 
-/// Reference handpiece speed for the tissue table's rates: an electric handpiece at 200 k rpm
-/// (REFERENCE.md "Handpieces": electric 40–200 k rpm, turbines 180–250 k under load).
-pub const REFERENCE_RPM: f64 = 200_000.0;
+/// Reference handpiece speed for the tissue table's rates: the devices' default, an electric
+/// handpiece at 200 k rpm (REFERENCE.md "Handpieces": electric 40–200 k rpm, turbines 180–250 k
+/// under load).
+pub const REFERENCE_RPM: f64 = dentsim_devices::DEFAULT_RPM;
 /// Bank at most this much cutting time.
 pub const MAX_BANKED_S: f64 = 0.05;
 /// Offsets sampled per rate-limited tick.

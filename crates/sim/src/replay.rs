@@ -1,13 +1,12 @@
 //! Replay: redo a logged session's ticks on the tissues it started from. The tick is
 //! deterministic (session time, not wall clock; same proxy, same strokes), so the final grids
 //! equal the session's bit for bit; check with [`dentsim_vdb::LevelSet::content_hash`].
-use std::io::Write;
 use std::path::Path;
 
 use dentsim_devices::DeviceState;
 use glam::DVec3;
 
-use crate::error::{invalid, Error, Result};
+use crate::error::{invalid, Result};
 use crate::haptics::HapticCore;
 use crate::log::{SessionLog, FLAG_MISSED};
 use crate::model::TissueModel;
@@ -75,20 +74,16 @@ pub fn replay_with_progress(log: &SessionLog, mut model: TissueModel, progress: 
     Ok(ReplayOutcome { model, forces, max_force_difference_n: max_diff, ticks_cut_differently: cut_differently, removed_mm3 })
 }
 
-/// `t_s,fx_n,fy_n,fz_n,f_n,removed_mm3,tissue` with the tissue by name (empty for none); written
-/// via a temporary name.
+/// `t_s,fx_n,fy_n,fz_n,f_n,removed_mm3,tissue` with the tissue by name (empty for none), written
+/// whole or not at all.
 pub fn write_force_csv(path: &Path, forces: &[ForceSample], tissues: &[String]) -> Result<()> {
-    let err = |e: std::io::Error| Error::File { path: path.to_owned(), message: e.to_string() };
-    let tmp = path.with_extension("csv.tmp");
-    {
-        let mut w = std::io::BufWriter::new(std::fs::File::create(&tmp).map_err(err)?);
-        writeln!(w, "t_s,fx_n,fy_n,fz_n,f_n,removed_mm3,tissue").map_err(err)?;
+    Ok(dentsim_atomic::write(path, |w| {
+        writeln!(w, "t_s,fx_n,fy_n,fz_n,f_n,removed_mm3,tissue")?;
         for s in forces {
             let name = usize::try_from(s.tissue).ok().and_then(|i| tissues.get(i)).map_or("", String::as_str);
             let f = s.force;
-            writeln!(w, "{},{},{},{},{},{},{}", s.t_s, f.x, f.y, f.z, f.length(), s.removed_mm3, name).map_err(err)?;
+            writeln!(w, "{},{},{},{},{},{},{}", s.t_s, f.x, f.y, f.z, f.length(), s.removed_mm3, name)?;
         }
-        w.flush().map_err(err)?;
-    }
-    std::fs::rename(&tmp, path).map_err(err)
+        Ok(())
+    })?)
 }

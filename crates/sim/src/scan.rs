@@ -33,12 +33,14 @@ pub struct ScanToTissues {
 
 impl Default for ScanToTissues {
     fn default() -> Self {
-        ScanToTissues { voxel_size_mm: 0.05, fdi: 36, seed_mm: None, bounds_mm: None, thresholds: None, margin_mm: 1.0 }
+        ScanToTissues { voxel_size_mm: crate::model::DEFAULT_VOXEL_MM, fdi: 36, seed_mm: None, bounds_mm: None, thresholds: None, margin_mm: 1.0 }
     }
 }
 
+/// One tissue as segmentation made it: one measured volume and how it was reached (not a
+/// before/after record: that is [`crate::model::TissueVolumes`]).
 #[derive(Clone, Debug, Serialize)]
-pub struct TissueVolume {
+pub struct SegmentedTissue {
     pub name: String,
     pub volume_mm3: f64,
     /// Voxels of the segmentation at the scan's resolution.
@@ -62,7 +64,7 @@ pub struct ScanReport {
     /// Dentin voxels outside the main dentin body, given to the enamel.
     pub dentin_specks_relabelled: usize,
     pub calibration: Calibration,
-    pub tissues: Vec<TissueVolume>,
+    pub tissues: Vec<SegmentedTissue>,
     pub seconds: Timings,
 }
 
@@ -136,7 +138,7 @@ impl ScanToTissues {
                 .get(label.name())
                 .cloned()
                 .ok_or_else(|| invalid("tissue table", format!("has no '{}'", label.name())))?;
-            tissues.push(TissueVolume {
+            tissues.push(SegmentedTissue {
                 name: label.name().into(),
                 volume_mm3: grid.volume(),
                 scan_voxels: tooth_labels.labels.iter().filter(|&&l| l == label as u8).count(),

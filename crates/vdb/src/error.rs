@@ -13,6 +13,12 @@ pub enum Error {
 
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
+impl From<dentsim_atomic::Error> for Error {
+    fn from(e: dentsim_atomic::Error) -> Self {
+        Error::File { path: e.path, message: e.source.to_string() }
+    }
+}
+
 pub(crate) fn openvdb(op: &'static str) -> impl FnOnce(cxx::Exception) -> Error {
     move |e| Error::OpenVdb { op, message: e.what().to_owned() }
 }

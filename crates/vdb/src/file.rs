@@ -1,4 +1,4 @@
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::level_set::LevelSet;
@@ -14,22 +14,16 @@ pub struct FileGrid {
 }
 
 /// Writes named grids (with their metadata) to one .vdb file. The file appears whole or not at
-/// all: it is written under a temporary name beside the target and renamed.
+/// all ([`dentsim_atomic::write_via`]).
 pub fn write_file(path: &Path, grids: &[&LevelSet]) -> Result<()> {
     let file_err = |message: String| Error::File { path: path.to_owned(), message };
-    let tmp = temporary_sibling(path).ok_or_else(|| file_err("not a file path".into()))?;
-    let tmp_str = tmp.to_str().ok_or_else(|| file_err("path is not valid UTF-8".into()))?;
     let mut list = ffi::new_grid_list();
     for g in grids {
         list.pin_mut().push(g.inner());
     }
-    if let Err(e) = list.write_file(tmp_str) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(file_err(e.what().to_owned()));
-    }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        file_err(format!("cannot move finished file into place: {e}"))
+    dentsim_atomic::write_via(path, |staged| {
+        let staged = staged.to_str().ok_or_else(|| file_err("path is not valid UTF-8".into()))?;
+        list.write_file(staged).map_err(|e| file_err(e.what().to_owned()))
     })
 }
 
@@ -60,9 +54,4 @@ pub fn read_file(path: &Path) -> Result<Vec<FileGrid>> {
         out.push(FileGrid { name, grid_type, grid_class, level_set });
     }
     Ok(out)
-}
-
-fn temporary_sibling(path: &Path) -> Option<PathBuf> {
-    let name = path.file_name()?.to_str()?;
-    Some(path.with_file_name(format!(".{name}.{}.tmp", std::process::id())))
 }

@@ -97,6 +97,8 @@ const XMAS_CONE_FRACTION: f64 = 0.7;
 const NECK_LENGTH_MM: f64 = 2.0;
 const SHANK_LENGTH_MM: f64 = 17.0;
 pub const FG_SHANK_DIAMETER_MM: f64 = 1.6;
+/// The round burr sessions and the phantom stroke use unless told otherwise (ISO size 010).
+pub const DEFAULT_ROUND_DIAMETER_MM: f64 = 1.0;
 
 #[derive(Clone, Debug, PartialEq)]
 enum Head {
