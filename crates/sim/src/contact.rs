@@ -32,19 +32,19 @@ impl BurrSamples {
             return Err(invalid("burr sample count", format!("{count}, expected 16 ..= 65536")));
         }
         let reach = burr.bounding_radius();
-        // The deepest point of the head on its axis is interior for every rotationally symmetric head.
-        let mut centre = DVec3::ZERO;
-        let mut best = f64::MAX;
-        for k in 0..=200 {
-            let p = DVec3::new(0.0, 0.0, reach * k as f64 / 200.0);
-            let d = burr.sdf(p);
-            if d < best {
-                (best, centre) = (d, p);
-            }
-        }
+        // The deepest point of the head on its axis is interior for every rotationally symmetric
+        // head; where the depth is level along the axis (a cylinder's), the middle of that
+        // stretch, so rays from it reach both ends of a long head alike.
+        let axis = |k: usize| DVec3::new(0.0, 0.0, reach * k as f64 / 200.0);
+        let depths: Vec<f64> = (0..=200).map(|k| burr.sdf(axis(k))).collect();
+        let best = depths.iter().copied().fold(f64::MAX, f64::min);
         if best >= 0.0 {
             return Err(invalid("burr", "found no interior point on its axis"));
         }
+        let level = |d: f64| d <= best + 1e-12 * reach.max(1e-3);
+        let first = depths.iter().position(|d| level(*d)).unwrap_or(0);
+        let last = depths.iter().rposition(|d| level(*d)).unwrap_or(first);
+        let centre = axis(first).lerp(axis(last), 0.5);
         let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
         let solid_angle = 4.0 * std::f64::consts::PI / count as f64;
         let (mut points, mut normals, mut areas) = (Vec::new(), Vec::new(), Vec::new());
@@ -65,6 +65,18 @@ impl BurrSamples {
                 }
             }
             let rho = 0.5 * (lo + hi);
+            // The samples need a head that each ray leaves once (star-shaped about the centre);
+            // every ISO head is convex, but say so rather than sample a wrong surface.
+            let crossings = (1..64).filter(|k| {
+                let t = |k: i32| 2.0 * rho * f64::from(k) / 64.0;
+                (burr.sdf(centre + dir * t(*k - 1)) < 0.0) != (burr.sdf(centre + dir * t(*k)) < 0.0)
+            });
+            if crossings.count() > 1 {
+                return Err(invalid(
+                    format!("burr {}", burr.spec()),
+                    "its head is not star-shaped about its axis centre; haptic contact cannot sample it",
+                ));
+            }
             let p = centre + dir * rho;
             let g = DVec3::new(
                 burr.sdf(p + DVec3::X * h) - burr.sdf(p - DVec3::X * h),
