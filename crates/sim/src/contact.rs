@@ -22,6 +22,8 @@ pub struct BurrSamples {
     /// An interior point of the head (tool frame) the rays start from.
     pub centre: DVec3,
     pub burr: Burr,
+    /// See [`BurrSamples::gap_depth`].
+    gap: f64,
 }
 
 impl BurrSamples {
@@ -97,7 +99,28 @@ impl BurrSamples {
         let points = order.iter().map(|&i| points[i]).collect();
         let normals = order.iter().map(|&i| normals[i]).collect();
         let areas = order.iter().map(|&i| areas[i]).collect();
-        Ok(BurrSamples { points, normals, areas, centre, burr: burr.clone() })
+        let mut samples = BurrSamples { points, normals, areas, centre, burr: burr.clone(), gap: 0.0 };
+        let reach = samples.points.iter().map(|p| p.distance(centre)).fold(0.0, f64::max);
+        samples.gap = 1.5 * std::f64::consts::PI * reach / count as f64;
+        if burr.ball_radius().is_none() {
+            // A head with edges (a flat end's rim, a cone's tip) pokes out between the samples
+            // farther than a ball's smooth surface does: measure it, from the exact support
+            // point in many directions (a tilted flat cylinder's rim: ~3 times the ball's
+            // estimate, so without this the proxy rested on a rim no sample felt: no force).
+            let dirs = 4 * count;
+            let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+            let mut worst: f64 = 0.0;
+            for i in 0..dirs {
+                let z = 1.0 - 2.0 * (i as f64 + 0.5) / dirs as f64;
+                let r = (1.0 - z * z).sqrt();
+                let phi = golden * i as f64;
+                let dir = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+                let sampled = samples.points.iter().map(|p| p.dot(dir)).fold(f64::MIN, f64::max);
+                worst = worst.max(samples.support(dir).dot(dir) - sampled);
+            }
+            samples.gap = samples.gap.max(1.5 * worst);
+        }
+        Ok(samples)
     }
 
     pub fn len(&self) -> usize {
@@ -165,11 +188,11 @@ impl BurrSamples {
     }
 
     /// How far (mm) the surface of the head can lie beyond every sample point in some direction:
-    /// ≈ reach·π/N (5.9 µm at worst for 256 points on a 1 mm ball, measured), with a 1.5 margin.
+    /// ≈ reach·π/N (5.9 µm at worst for 256 points on a 1 mm ball, measured), with a 1.5 margin;
+    /// for other heads at least 1.5 × the largest gap measured at construction (edges and tips).
     /// A band this deep over a surface holds at least one sample wherever the head touches it.
     pub fn gap_depth(&self) -> f64 {
-        let reach = self.points.iter().map(|p| p.distance(self.centre)).fold(0.0, f64::max);
-        1.5 * std::f64::consts::PI * reach / self.len().max(1) as f64
+        self.gap
     }
 }
 
