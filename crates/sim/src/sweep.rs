@@ -163,6 +163,13 @@ impl Sweep {
         // (To rounding: the quaternion round trip may move the pose by an ulp, 1e-16 mm, far
         // below the skip's slack.)
         let head_at_start = done_head.filter(|h| same_pose(&h.to_tool, &self.inverse[0]));
+        // A translating head done, whole, at the start pose: the sweep evaluates only the later
+        // sub-poses; (the distance moved per sub-pose) for the bound on the start pose's.
+        let translating = q0 == q1;
+        let start_free = match head_at_start {
+            Some(h) if h.offset == 0.0 && translating && n > 0 => Some((t1 - t0).length() / n as f64),
+            _ => None,
+        };
         // A translating ball whose start lies within the done ball: behind the plane through the
         // start, normal to the motion, the capsule's nearest point is the start, which the done
         // ball covers, so every voxel there would come out as the cut-off. Rows skip that part.
@@ -266,6 +273,29 @@ impl Sweep {
                             let mut lower = f64::INFINITY;
                             // The start pose first, exactly: a head done there reads it (below).
                             let mut at_start = f64::INFINITY;
+                            if let Some(moves) = start_free {
+                                // The grids hold the start pose's head already (to the slack):
+                                // the later sub-poses alone; the start pose's distance is at most
+                                // theirs plus how far they moved (1-Lipschitz in translation).
+                                let mut start_upper = f64::INFINITY;
+                                for k in 1..self.inverse.len() {
+                                    let bound = (p - self.centres[k]).length() - rb;
+                                    if bound >= best {
+                                        lower = lower.min(bound);
+                                        continue;
+                                    }
+                                    let d = burr.sdf(self.inverse[k].transform_point3(p));
+                                    start_upper = start_upper.min(d + moves * k as f64);
+                                    lower = lower.min(d);
+                                    best = best.min(d);
+                                }
+                                let beyond = (lower - cutoff - 1e-6) / voxel;
+                                let deep = (-band - f64::from(DONE_SLACK) - 1e-6 - start_upper) / voxel;
+                                *v = if deep >= 0.0 { cutoff as f32 } else { best as f32 };
+                                let jump = beyond.max(deep);
+                                n += 1 + if jump >= 1.0 { jump.floor() as usize } else { 0 };
+                                continue;
+                            }
                             for (k, (inv, c)) in self.inverse.iter().zip(&self.centres).enumerate() {
                                 let bound = (p - *c).length() - rb;
                                 if bound >= best {
