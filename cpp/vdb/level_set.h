@@ -68,6 +68,7 @@ public:
   // Benchmark peers: what plain OpenVDB code would do for the same job.
   double peer_sample_sum(rust::Slice<const float> xyz) const;
   void peer_sphere_cut(std::array<double, 3> center, double radius);
+  void peer_mesh_cut(rust::Slice<const float> points, rust::Slice<const uint32_t> triangles);
   uint64_t peer_full_mesh() const;
 
   // Haptic sampling without a Reader (sample.cc): values, or value + gradient per point.

@@ -49,7 +49,7 @@ fn segment_scan_in_child(quick: bool) -> Result<BenchRow> {
 
 fn print_table(rows: &[BenchRow]) {
     println!(
-        "{:<18} {:>12} {:>12} {:>12} {:>12} {:>8}  peer (or goal where no peer runs)",
+        "{:<24} {:>12} {:>12} {:>12} {:>12} {:>8}  peer (or goal where no peer runs)",
         "operation", "ours p50 µs", "ours p99 µs", "ours p99.9", "peer p50 µs", "ratio"
     );
     let cell = |v: Option<f64>, width: usize| match v {
@@ -58,7 +58,7 @@ fn print_table(rows: &[BenchRow]) {
     };
     for r in rows {
         println!(
-            "{:<18} {} {} {} {} {}  {}",
+            "{:<24} {} {} {} {} {}  {}",
             r.name,
             cell(Some(r.ours_median_us), 12),
             cell(Some(r.ours_p99_us), 12),
@@ -68,7 +68,7 @@ fn print_table(rows: &[BenchRow]) {
             r.peer
         );
         if let Some(mb) = r.peak_memory_mb {
-            println!("{:<18} peak memory {mb:.0} MB", "");
+            println!("{:<24} peak memory {mb:.0} MB", "");
         }
     }
 }

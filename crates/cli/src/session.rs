@@ -28,6 +28,10 @@ pub struct Args {
     /// Tick on the wall clock at 1 kHz (default: ticks back to back, same physics).
     #[arg(long)]
     realtime: bool,
+    /// The burr, as `prepare` takes it: a catalogue name (`flame_016`), an ISO 6360 number
+    /// (`806 314 001 524 010`) or SHAPE:DIAMETER_MM[:LENGTH_MM] (`cylinder_flat:1.2:4`).
+    #[arg(long, default_value = dentsim_sim::haptics::DEFAULT_BURR)]
+    burr: String,
 }
 
 pub fn run(args: &Args) -> Result<()> {
@@ -38,6 +42,7 @@ pub fn run(args: &Args) -> Result<()> {
         profile: args.profile.clone(),
         filter: args.filter.clone(),
         realtime: args.realtime,
+        burr: args.burr.clone(),
     };
     let bar = crate::progress::bar(100);
     let summary = run_session_to_dir(&request, &mut |step, fraction| {

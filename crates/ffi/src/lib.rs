@@ -67,6 +67,9 @@ mod bridge {
         filter: String,
         /// Tick on the wall clock; false runs ticks back to back (reproducible pictures).
         realtime: bool,
+        /// A burr spec as for preparations: catalogue name, ISO number, or
+        /// `SHAPE:DIAMETER_MM[:LENGTH_MM]`.
+        burr: String,
     }
 
     /// The latest state of a live session.
@@ -283,6 +286,7 @@ fn default_session() -> SessionParams {
         profile: dentsim_sim::devices::DeviceProfile::DEFAULT_NAME.into(),
         filter: dentsim_sim::filter::FilterSpec::DEFAULT_NAME.into(),
         realtime: true,
+        burr: dentsim_sim::haptics::DEFAULT_BURR.into(),
     }
 }
 
@@ -297,7 +301,7 @@ pub fn start_session(params: &SessionParams) -> Result<Box<HapticSession>, Strin
             realtime: params.realtime,
             mesher_hz: dentsim_sim::session::DEFAULT_MESHER_HZ,
         };
-        let live = LiveSession::start(&request).map_err(|e| e.to_string())?;
+        let live = LiveSession::start_with_burr(&request, &params.burr).map_err(|e| e.to_string())?;
         Ok(Box::new(HapticSession { live, last: LiveState::default() }))
     })
 }
@@ -418,6 +422,33 @@ mod tests {
         let burr = s.burr_surface().unwrap();
         let top = burr.points.chunks(3).map(|p| f64::from(p[2])).fold(f64::MIN, f64::max);
         assert!((top - (state.burr_position_mm[2] + 1.0)).abs() < 0.05, "{top}");
+    }
+
+    #[test]
+    fn live_session_cuts_with_the_burr_it_names() {
+        let err = start_session(&SessionParams { burr: "cone:1".into(), ..default_session() }).err().expect("refused");
+        assert!(err.contains("burr 'cone:1'") && err.contains("shape 'cone'"), "{err}");
+        let params = SessionParams {
+            phantom_voxel_mm: 0.1,
+            device: "hand:start=0:0:5.8,target=0:0:4.0,duration=0.3".into(),
+            realtime: false,
+            burr: "cylinder_flat:1.2:3".into(),
+            ..default_session()
+        };
+        let mut s = start_session(&params).unwrap();
+        let mut state = s.poll().unwrap();
+        while state.running {
+            std::thread::sleep(std::time::Duration::from_millis(5));
+            state = s.poll().unwrap();
+        }
+        assert_eq!(state.contact_tissue, "enamel");
+        // The burr drawn is the cylinder: 3 mm tall and 1.2 mm across.
+        let burr = s.burr_surface().unwrap();
+        let extent = |axis: usize| {
+            let v = burr.points.chunks(3).map(|p| f64::from(p[axis]));
+            v.clone().fold(f64::MIN, f64::max) - v.fold(f64::MAX, f64::min)
+        };
+        assert!((extent(2) - 3.0).abs() < 0.1 && (extent(0) - 1.2).abs() < 0.1, "{} × {}", extent(0), extent(2));
     }
 
     fn groove_params(burr: &str) -> PreparationParams {

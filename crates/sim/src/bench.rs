@@ -276,6 +276,57 @@ pub fn cut_stroke(tooth: &BenchTooth, cfg: BenchConfig) -> Result<Vec<BenchRow>>
     }
 }
 
+/// The burr families of issue 10's `cut_stroke` goal beside the round burr, as (row, burr spec):
+/// the catalogue's burrs of each shape.
+pub const CUT_STROKE_FAMILIES: [(&str, &str); 5] = [
+    ("cut_stroke_cylinder", "cylinder_flat_012"),
+    ("cut_stroke_taper", "taper_flat_012"),
+    ("cut_stroke_inverted_cone", "inverted_cone_010"),
+    ("cut_stroke_flame", "flame_016"),
+    ("cut_stroke_pear", "pear_010"),
+];
+
+/// `cut_stroke` for a burr of any shape (`spec`, as `prepare` takes it) on the same path, as the
+/// haptic tick cuts (volume not measured); peer: the burr's level set built from its mesh at the
+/// stroke's end pose (`meshToLevelSet`) and `csgDifference` per tissue.
+pub fn cut_stroke_burr(tooth: &BenchTooth, cfg: BenchConfig, row: &str, spec: &str) -> Result<BenchRow> {
+    let burr = Burr::parse(spec)?;
+    let tip = |i| bench_stroke_tip(tooth.occlusal, i);
+    let mut failure = None;
+    let mut ours_model = tooth.model.clone();
+    let mut cutter = Cutter::default();
+    cutter.set_measure(Measure::Skip);
+    ours_model.voxelize_for_cutting()?;
+    cutter.prepare(&mut ours_model, &burr, tip(0).translation.distance(tip(1).translation));
+    cutter.cut_with(&mut ours_model, &burr, tip(0), tip(0), Feed::Geometric)?;
+    let ours = Timings::measure(cfg.repetitions, 1, |i| {
+        if let Err(e) = cutter.cut_with(&mut ours_model, &burr, tip(i), tip(i + 1), Feed::Geometric) {
+            failure.get_or_insert(e);
+        }
+    });
+    let head = crate::live::burr_mesh(&burr)?;
+    let mut peer_model = tooth.model.clone();
+    // The peer takes 0.05–0.5 s a stroke (the whole head voxelised each time): fewer repetitions.
+    let peer_reps = (cfg.repetitions / 20).max(3);
+    let peer = Timings::measure(peer_reps, 1, |i| {
+        let pose = tip(i + 1);
+        let placed = dentsim_vdb::TriMesh {
+            points: head.points.iter().map(|p| pose.transform_point3(p.as_dvec3()).as_vec3()).collect(),
+            normals: Vec::new(),
+            triangles: head.triangles.clone(),
+        };
+        for t in &mut peer_model.tissues {
+            if let Err(e) = t.grid.peer_mesh_cut(&placed) {
+                failure.get_or_insert(e.into());
+            }
+        }
+    });
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(BenchRow::new(row, &ours, &format!("{spec}: meshToLevelSet + csgDifference"), &peer)),
+    }
+}
+
 /// Contact query of a 1.0 mm round burr (`points` samples) pressed about 0.1 mm into the molar's
 /// occlusal surface at 0.05 mm voxels, against all three tissues; peer: parry3d `project_point`
 /// of the same points on each tissue's triangle mesh (OpenVDB `volumeToMesh`, BVH built
@@ -469,6 +520,10 @@ pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<B
     rows.push(sdf_sample_random(model, cfg));
     progress("cut_stroke");
     rows.extend(cut_stroke(model, cfg)?);
+    for (row, spec) in CUT_STROKE_FAMILIES {
+        progress(row);
+        rows.push(cut_stroke_burr(model, cfg, row, spec)?);
+    }
     progress("remesh_stroke");
     rows.push(remesh_stroke(model, cfg)?);
     progress("mesh_surface");

@@ -22,6 +22,8 @@ pub struct BurrSamples {
     /// An interior point of the head (tool frame) the rays start from.
     pub centre: DVec3,
     pub burr: Burr,
+    /// See [`BurrSamples::gap_depth`].
+    gap: f64,
 }
 
 impl BurrSamples {
@@ -32,19 +34,19 @@ impl BurrSamples {
             return Err(invalid("burr sample count", format!("{count}, expected 16 ..= 65536")));
         }
         let reach = burr.bounding_radius();
-        // The deepest point of the head on its axis is interior for every rotationally symmetric head.
-        let mut centre = DVec3::ZERO;
-        let mut best = f64::MAX;
-        for k in 0..=200 {
-            let p = DVec3::new(0.0, 0.0, reach * k as f64 / 200.0);
-            let d = burr.sdf(p);
-            if d < best {
-                (best, centre) = (d, p);
-            }
-        }
+        // The deepest point of the head on its axis is interior for every rotationally symmetric
+        // head; where the depth is level along the axis (a cylinder's), the middle of that
+        // stretch, so rays from it reach both ends of a long head alike.
+        let axis = |k: usize| DVec3::new(0.0, 0.0, reach * k as f64 / 200.0);
+        let depths: Vec<f64> = (0..=200).map(|k| burr.sdf(axis(k))).collect();
+        let best = depths.iter().copied().fold(f64::MAX, f64::min);
         if best >= 0.0 {
             return Err(invalid("burr", "found no interior point on its axis"));
         }
+        let level = |d: f64| d <= best + 1e-12 * reach.max(1e-3);
+        let first = depths.iter().position(|d| level(*d)).unwrap_or(0);
+        let last = depths.iter().rposition(|d| level(*d)).unwrap_or(first);
+        let centre = axis(first).lerp(axis(last), 0.5);
         let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
         let solid_angle = 4.0 * std::f64::consts::PI / count as f64;
         let (mut points, mut normals, mut areas) = (Vec::new(), Vec::new(), Vec::new());
@@ -65,6 +67,18 @@ impl BurrSamples {
                 }
             }
             let rho = 0.5 * (lo + hi);
+            // The samples need a head that each ray leaves once (star-shaped about the centre);
+            // every ISO head is convex, but say so rather than sample a wrong surface.
+            let crossings = (1..64).filter(|k| {
+                let t = |k: i32| 2.0 * rho * f64::from(k) / 64.0;
+                (burr.sdf(centre + dir * t(*k - 1)) < 0.0) != (burr.sdf(centre + dir * t(*k)) < 0.0)
+            });
+            if crossings.count() > 1 {
+                return Err(invalid(
+                    format!("burr {}", burr.spec()),
+                    "its head is not star-shaped about its axis centre; haptic contact cannot sample it",
+                ));
+            }
             let p = centre + dir * rho;
             let g = DVec3::new(
                 burr.sdf(p + DVec3::X * h) - burr.sdf(p - DVec3::X * h),
@@ -85,7 +99,28 @@ impl BurrSamples {
         let points = order.iter().map(|&i| points[i]).collect();
         let normals = order.iter().map(|&i| normals[i]).collect();
         let areas = order.iter().map(|&i| areas[i]).collect();
-        Ok(BurrSamples { points, normals, areas, centre, burr: burr.clone() })
+        let mut samples = BurrSamples { points, normals, areas, centre, burr: burr.clone(), gap: 0.0 };
+        let reach = samples.points.iter().map(|p| p.distance(centre)).fold(0.0, f64::max);
+        samples.gap = 1.5 * std::f64::consts::PI * reach / count as f64;
+        if burr.ball_radius().is_none() {
+            // A head with edges (a flat end's rim, a cone's tip) pokes out between the samples
+            // farther than a ball's smooth surface does: measure it, from the exact support
+            // point in many directions (a tilted flat cylinder's rim: ~3 times the ball's
+            // estimate, so without this the proxy rested on a rim no sample felt: no force).
+            let dirs = 4 * count;
+            let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+            let mut worst: f64 = 0.0;
+            for i in 0..dirs {
+                let z = 1.0 - 2.0 * (i as f64 + 0.5) / dirs as f64;
+                let r = (1.0 - z * z).sqrt();
+                let phi = golden * i as f64;
+                let dir = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+                let sampled = samples.points.iter().map(|p| p.dot(dir)).fold(f64::MIN, f64::max);
+                worst = worst.max(samples.support(dir).dot(dir) - sampled);
+            }
+            samples.gap = samples.gap.max(1.5 * worst);
+        }
+        Ok(samples)
     }
 
     pub fn len(&self) -> usize {
@@ -153,11 +188,11 @@ impl BurrSamples {
     }
 
     /// How far (mm) the surface of the head can lie beyond every sample point in some direction:
-    /// ≈ reach·π/N (5.9 µm at worst for 256 points on a 1 mm ball, measured), with a 1.5 margin.
+    /// ≈ reach·π/N (5.9 µm at worst for 256 points on a 1 mm ball, measured), with a 1.5 margin;
+    /// for other heads at least 1.5 × the largest gap measured at construction (edges and tips).
     /// A band this deep over a surface holds at least one sample wherever the head touches it.
     pub fn gap_depth(&self) -> f64 {
-        let reach = self.points.iter().map(|p| p.distance(self.centre)).fold(0.0, f64::max);
-        1.5 * std::f64::consts::PI * reach / self.len().max(1) as f64
+        self.gap
     }
 }
 

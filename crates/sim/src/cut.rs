@@ -8,9 +8,9 @@
 //! changed voxels with their new values, which a session hands to its mesher's copy of the grids. Once its buffers have grown to the
 //! largest stroke, [`Cutter::cut_with`] allocates nothing.
 //!
-//! A round burr's stroke ends in a ball every grid has lost. While no one else edits the grids
-//! (their stamps are the ones this cutter left), the next stroke skips the voxels that ball
-//! already took: a haptic tick's stroke overlaps the previous one almost wholly.
+//! A stroke ends in a head every grid has lost (a round burr's: a ball). While no one else edits
+//! the grids (their stamps are the ones this cutter left), the next stroke skips the voxels that
+//! head already took: a haptic tick's stroke overlaps the previous one almost wholly.
 use dentsim_vdb::{Measure, VoxelChange};
 use glam::{DAffine3, DVec3, IVec3};
 use serde::Serialize;
@@ -21,7 +21,7 @@ use crate::error::Result;
 use crate::history::History;
 use crate::model::TissueModel;
 use crate::removal::{pick_offset, Feed, RemovalBank, MAX_BANKED_S, OFFSET_SAMPLES};
-use crate::sweep::{CutBall, Sweep};
+use crate::sweep::{CutBall, CutHead, Done, Sweep};
 
 /// Volume each tissue lost to one stroke.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -82,10 +82,11 @@ pub struct Cutter {
     bank: RemovalBank,
     pub history: History,
     pub dirty: DirtyLeaves,
-    /// The ball the last stroke ended in and the grids' stamps it left (see the module notes).
-    done: Option<CutBall>,
-    /// The done ball the last stroke skipped (its cut depends on it, to [`crate::sweep`]'s slack).
-    skipped: Option<CutBall>,
+    /// The head (a ball, or any head at its pose) the last stroke ended in and the grids' stamps
+    /// it left (see the module notes).
+    done: Option<Done>,
+    /// The done head the last stroke skipped (its cut depends on it, to [`crate::sweep`]'s slack).
+    skipped: Option<Done>,
     done_stamps: Vec<u64>,
     measure: Measure,
     handoff: Handoff,
@@ -153,16 +154,16 @@ impl Cutter {
     /// Cuts again, on a copy of the grids, a stroke another cutter made: `skipped` is what that
     /// cutter's [`last_skipped`](Self::last_skipped) said, so the copy changes bit for bit as the
     /// original did.
-    pub fn recut(&mut self, model: &mut TissueModel, burr: &Burr, from: DAffine3, to: DAffine3, skipped: Option<CutBall>) -> Result<&StrokeReport> {
+    pub fn recut(&mut self, model: &mut TissueModel, burr: &Burr, from: DAffine3, to: DAffine3, skipped: Option<Done>) -> Result<&StrokeReport> {
         self.cut_skipping(model, burr, from, to, Feed::Geometric, skipped)
     }
 
-    /// The done ball the last cut skipped (see [`recut`](Self::recut)).
-    pub fn last_skipped(&self) -> Option<CutBall> {
+    /// The done head the last cut skipped (see [`recut`](Self::recut)).
+    pub fn last_skipped(&self) -> Option<Done> {
         self.skipped
     }
 
-    fn cut_skipping(&mut self, model: &mut TissueModel, burr: &Burr, from: DAffine3, to: DAffine3, feed: Feed, done: Option<CutBall>) -> Result<&StrokeReport> {
+    fn cut_skipping(&mut self, model: &mut TissueModel, burr: &Burr, from: DAffine3, to: DAffine3, feed: Feed, done: Option<Done>) -> Result<&StrokeReport> {
         feed.validate()?;
         self.report.reset_for(model);
         if self.handoff == Handoff::NewValues && self.changes.len() != model.tissues.len() {
@@ -172,7 +173,7 @@ impl Cutter {
         let Some(h) = model.voxel_size() else { return Ok(&self.report) };
         let band = model.tissues.iter().map(|t| f64::from(t.grid.background())).fold(0.0, f64::max);
         self.skipped = done;
-        self.sweep.build(burr, from, to, h, band, done)?;
+        self.sweep.build_skipping(burr, from, to, h, band, done)?;
         self.report.substeps = self.sweep.substeps;
         let auto_stroke = !self.history.is_open();
         self.history.begin_stroke();
@@ -181,13 +182,16 @@ impl Cutter {
             self.history.end_stroke();
         }
         let deepest_offset = result?;
-        if let Some(r) = burr.ball_radius() {
-            let radius = r - f64::from(deepest_offset);
-            if radius > 0.0 {
-                self.done = Some(CutBall { centre: to.transform_point3(DVec3::new(0.0, 0.0, burr.bound().0)), radius });
-                self.done_stamps.clear();
-                self.done_stamps.extend(model.tissues.iter().map(|t| t.grid.stamp()));
+        self.done = match burr.ball_radius() {
+            Some(r) => {
+                let radius = r - f64::from(deepest_offset);
+                (radius > 0.0).then(|| Done::Ball(CutBall { centre: to.transform_point3(DVec3::new(0.0, 0.0, burr.bound().0)), radius }))
             }
+            None => Some(Done::Head(CutHead { to_tool: to.inverse(), offset: f64::from(deepest_offset) })),
+        };
+        if self.done.is_some() {
+            self.done_stamps.clear();
+            self.done_stamps.extend(model.tissues.iter().map(|t| t.grid.stamp()));
         }
         Ok(&self.report)
     }

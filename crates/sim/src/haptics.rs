@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::burr::Burr;
 use crate::contact::{BurrSamples, ContactQuery};
 use crate::cut::{Cutter, Handoff};
-use crate::sweep::CutBall;
+use crate::sweep::Done;
 use crate::removal::Feed;
 use crate::error::{invalid, Result};
 use crate::filter::{clamp_length, FilterSpec, ForceFilter};
@@ -35,10 +35,14 @@ pub const STROKE_CONTINUES_VOXELS: f64 = 0.1;
 /// Below this area (mm², a hundredth of a sample point on a 1 mm ball) nothing lies ahead.
 const MIN_FOOTPRINT_MM2: f64 = 1e-4;
 
+pub use crate::burr::DEFAULT_BURR;
+
 /// Everything that shapes the tick; stored in the log header so a replay redoes the same ticks.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct HapticParams {
-    pub burr_diameter_mm: f64,
+    /// The burr, as `dentsim prepare` takes it ([`Burr::parse`]): a catalogue name, an ISO 6360
+    /// number or `SHAPE:DIAMETER_MM[:LENGTH_MM]`.
+    pub burr: String,
     /// Points on the burr head (≥ 256 gives the contact resolution the benchmarks use).
     pub samples: usize,
     pub profile: DeviceProfile,
@@ -65,7 +69,7 @@ pub struct HapticParams {
 impl Default for HapticParams {
     fn default() -> Self {
         HapticParams {
-            burr_diameter_mm: crate::burr::DEFAULT_ROUND_DIAMETER_MM,
+            burr: DEFAULT_BURR.into(),
             samples: 256,
             profile: DeviceProfile::named(DeviceProfile::DEFAULT_NAME).expect("built-in profile"),
             filter: FilterSpec::default_delta(),
@@ -133,7 +137,7 @@ impl HapticCore {
         if model.tissues.len() > MAX_TISSUES {
             return Err(invalid("tissue model", format!("{} tissues, at most {MAX_TISSUES}", model.tissues.len())));
         }
-        let burr = Burr::round(params.burr_diameter_mm)?;
+        let burr = Burr::parse(&params.burr)?;
         let samples = BurrSamples::new(&burr, params.samples)?;
         let n = samples.len();
         let samples_gap = samples.gap_depth();
@@ -190,8 +194,8 @@ impl HapticCore {
         self.cutter.last_changes(tissue)
     }
 
-    /// The done ball this tick's cut skipped (for [`Cutter::recut`]).
-    pub fn last_skipped(&self) -> Option<CutBall> {
+    /// The done head this tick's cut skipped (for [`Cutter::recut`]).
+    pub fn last_skipped(&self) -> Option<Done> {
         self.cutter.last_skipped()
     }
 
@@ -266,7 +270,7 @@ impl HapticCore {
         out.gain = self.watchdog.update(missed_deadline);
         out.force = clamp_length(filtered * out.gain, max_force);
         // Torque: same gain; bounded by the force limit times the lever arm.
-        let lever = self.params.axis_point_mm.abs() + self.params.burr_diameter_mm;
+        let lever = self.params.axis_point_mm.abs() + self.burr.bounding_radius();
         out.torque = clamp_length(raw.torque * out.gain, max_force * lever);
         Ok(out)
     }

@@ -33,6 +33,8 @@ pub struct SessionRequest {
     pub filter: String,
     /// Tick on the wall clock (1 kHz) instead of back to back.
     pub realtime: bool,
+    /// The burr, as `prepare` takes it ([`crate::burr::Burr::parse`]).
+    pub burr: String,
 }
 
 /// One tissue's figures after a session or replay.
@@ -57,6 +59,9 @@ pub struct SessionSummary {
     pub device: String,
     pub profile: String,
     pub filter: String,
+    /// The burr's spec (absent from summaries written before sessions took any burr).
+    #[serde(default)]
+    pub burr: String,
     pub realtime: bool,
     pub ticks: u64,
     pub duration_s: f64,
@@ -139,7 +144,8 @@ pub fn run_session_to_dir(req: &SessionRequest, progress: &mut dyn FnMut(&str, f
     let spec = DeviceSpec::parse(&req.device).map_err(|e| invalid("device", e.to_string()))?;
     let model = load_tissues(&req.tissues)?;
     let (device, duration_s) = spec.open().map_err(|e| invalid("device", e.to_string()))?;
-    let params = HapticParams { profile, filter, ..HapticParams::default() };
+    crate::burr::Burr::parse(&req.burr)?;
+    let params = HapticParams { profile, filter, burr: req.burr.clone(), ..HapticParams::default() };
     let before = model.volumes();
 
     create_dir(&req.out)?;
@@ -172,6 +178,7 @@ pub fn run_session_to_dir(req: &SessionRequest, progress: &mut dyn FnMut(&str, f
         device: req.device.clone(),
         profile: req.profile.clone(),
         filter: req.filter.clone(),
+        burr: req.burr.clone(),
         realtime: req.realtime,
         ticks: outcome.ticks,
         duration_s: outcome.ticks as f64 * period,

@@ -15,7 +15,7 @@ use glam::{DAffine3, DVec3};
 use crate::burr::Burr;
 use crate::error::{invalid, Result};
 use crate::filter::FilterSpec;
-use crate::haptics::HapticParams;
+use crate::haptics::{HapticParams, DEFAULT_BURR};
 use crate::log::TickRecord;
 use crate::mesher::{surface, SurfaceFrame};
 use crate::model::TissueModel;
@@ -75,8 +75,17 @@ pub struct LiveSession {
 }
 
 impl LiveSession {
-    /// Checks every input, builds or loads the tissues, meshes them once and starts the threads.
+    /// Checks every input, builds or loads the tissues, meshes them once and starts the threads,
+    /// with the default burr ([`DEFAULT_BURR`]).
     pub fn start(req: &LiveRequest) -> Result<Self> {
+        Self::start_with_burr(req, DEFAULT_BURR)
+    }
+
+    /// Like [`start`](Self::start), cutting with `burr` (a spec as `dentsim prepare` takes it,
+    /// [`Burr::parse`]).
+    pub fn start_with_burr(req: &LiveRequest, burr: &str) -> Result<Self> {
+        // The burr first: a bad spec is reported before any tissue is built.
+        let burr_mesh = burr_mesh(&Burr::parse(burr)?)?;
         let profile = DeviceProfile::named(&req.profile).map_err(|e| invalid("profile", e.to_string()))?;
         let filter = FilterSpec::named(&req.filter).map_err(|m| invalid("filter", m))?;
         let spec = DeviceSpec::parse(&req.device).map_err(|e| invalid("device", e.to_string()))?;
@@ -90,7 +99,7 @@ impl LiveSession {
         };
         let (device, duration_s) = spec.open().map_err(|e| invalid("device", e.to_string()))?;
         let params = HapticParams { profile, filter, ..HapticParams::default() };
-        let burr_mesh = burr_mesh(&Burr::round(params.burr_diameter_mm)?)?;
+        let params = HapticParams { burr: burr.to_owned(), ..params };
         let props = model.tissues.iter().map(|t| t.props.clone()).collect();
         let meshes = model.tissues.iter().map(|t| surface(&t.grid).map(Arc::new)).collect::<Result<Vec<_>>>()?;
         let start_mesh_volumes = meshes.iter().map(|m| m.volume()).collect();
@@ -193,11 +202,13 @@ impl LiveSession {
     }
 }
 
-/// The burr head's surface in the tool frame, meshed from its SDF (a ball: a few thousand triangles).
-fn burr_mesh(burr: &Burr) -> Result<TriMesh> {
-    let r = burr.bounding_radius();
-    let h = (r / 20.0).max(0.01);
+/// The burr head's surface in the tool frame, meshed from its SDF over the head's own box, at a
+/// twentieth of its diameter (a ball: a few thousand triangles; a long head more, as it should).
+pub(crate) fn burr_mesh(burr: &Burr) -> Result<TriMesh> {
+    let head = burr.head_profile();
+    let r = head.max_radius;
+    let h = (burr.diameter_mm / 20.0).max(0.01);
     let pad = DVec3::splat(4.0 * h);
-    let grid = LevelSet::from_sdf(h, 3.0, DVec3::new(-r, -r, -r) - pad, DVec3::new(r, r, 2.0 * r) + pad, |p| burr.sdf(p))?;
+    let grid = LevelSet::from_sdf(h, 3.0, DVec3::new(-r, -r, head.z_min) - pad, DVec3::new(r, r, head.z_max) + pad, |p| burr.sdf(p))?;
     surface(&grid)
 }

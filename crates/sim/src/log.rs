@@ -16,7 +16,9 @@ use crate::haptics::HapticParams;
 pub const MAGIC: [u8; 8] = *b"DSIMLOG\0";
 /// 2: records carry the tick's changed voxels, no longer its removed volume (live ticks do not
 /// measure it; a replay does).
-pub const VERSION: u32 = 2;
+/// 3: the header's haptic parameters name the burr by its spec (`burr`), not a round burr's
+/// diameter.
+pub const VERSION: u32 = 3;
 pub const RECORD_BYTES: usize = 8 + 8 + 8 + 12 * 8 + 4 + 8 + 3 * 8 + 3 * 8 + 3 * 8 + 4 + 4 + 8;
 
 /// Flag bits of a record.

@@ -36,7 +36,7 @@ use crate::haptics::{HapticCore, HapticParams};
 use crate::log::{write_header, write_record, LogHeader, TickRecord, FLAG_CUT, FLAG_DEVICE_FAULT, FLAG_MISSED};
 use crate::mesher::{Mesher, SurfaceFrame};
 use crate::model::TissueModel;
-use crate::sweep::CutBall;
+use crate::sweep::Done;
 
 /// How a session runs.
 #[derive(Clone, Debug)]
@@ -117,12 +117,12 @@ struct StrokeMsg {
     recut: Option<Recut>,
 }
 
-/// A stroke to cut again: its poses and the done ball its cut skipped.
+/// A stroke to cut again: its poses and the done head its cut skipped.
 #[derive(Clone, Copy)]
 struct Recut {
     from: DAffine3,
     to: DAffine3,
-    skipped: Option<CutBall>,
+    skipped: Option<Done>,
 }
 
 struct Shared {

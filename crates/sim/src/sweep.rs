@@ -37,6 +37,22 @@ pub struct CutBall {
     pub radius: f64,
 }
 
+/// The head of any burr at a pose, shrunk by `offset` mm, that every grid has already lost:
+/// `value ≥ min(−(sdf_head(to_tool · p) + offset), background)` everywhere.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CutHead {
+    /// World → tool frame of the pose.
+    pub to_tool: DAffine3,
+    pub offset: f64,
+}
+
+/// What the grids already lost where the next stroke starts (see [`Sweep::build_skipping`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Done {
+    Ball(CutBall),
+    Head(CutHead),
+}
+
 /// Reusable buffers for building swept patches; allocation-free once warmed up.
 #[derive(Default)]
 pub struct Sweep {
@@ -81,6 +97,13 @@ impl Sweep {
     /// Fills `patch` with the swept head's signed distance over its box plus `band` mm (the
     /// largest background of the grids it will cut), skipping what `done` already removed.
     pub fn build(&mut self, burr: &Burr, from: DAffine3, to: DAffine3, voxel: f64, band: f64, done: Option<CutBall>) -> Result<()> {
+        self.build_skipping(burr, from, to, voxel, band, done.map(Done::Ball))
+    }
+
+    /// Like [`build`](Self::build), skipping what `done` (a ball, or any head at a pose) already
+    /// removed. A head done at the stroke's start pose costs nothing extra: its distance is the
+    /// first sub-pose's, which the sweep evaluates anyway.
+    pub fn build_skipping(&mut self, burr: &Burr, from: DAffine3, to: DAffine3, voxel: f64, band: f64, done: Option<Done>) -> Result<()> {
         let q0 = rotation_of(&from, "stroke start pose")?;
         let q1 = rotation_of(&to, "stroke end pose")?;
         let (t0, t1) = (from.translation, to.translation);
@@ -131,6 +154,22 @@ impl Sweep {
         patch.spans.clear();
         patch.spans.resize(2 * dims.y as usize * dims.z as usize, 0);
         let ball = burr.ball_radius();
+        let (done_head, done) = match done {
+            Some(Done::Head(h)) => (Some(h), None),
+            Some(Done::Ball(b)) => (None, Some(b)),
+            None => (None, None),
+        };
+        // The done head at the stroke's start pose: its distance is sub-pose 0's.
+        // (To rounding: the quaternion round trip may move the pose by an ulp, 1e-16 mm, far
+        // below the skip's slack.)
+        let head_at_start = done_head.filter(|h| same_pose(&h.to_tool, &self.inverse[0]));
+        // A translating head done, whole, at the start pose: the sweep evaluates only the later
+        // sub-poses; (the distance moved per sub-pose) for the bound on the start pose's.
+        let translating = q0 == q1;
+        let start_free = match head_at_start {
+            Some(h) if h.offset == 0.0 && translating && n > 0 => Some((t1 - t0).length() / n as f64),
+            _ => None,
+        };
         // A translating ball whose start lies within the done ball: behind the plane through the
         // start, normal to the motion, the capsule's nearest point is the start, which the done
         // ball covers, so every voxel there would come out as the cut-off. Rows skip that part.
@@ -219,19 +258,78 @@ impl Sweep {
                         }
                     }
                     None => {
-                        for (v, i) in out.iter_mut().zip(i_lo..) {
+                        // Distances are 1-Lipschitz along the row: from a voxel whose lower bound
+                        // lies m voxels beyond the cut-off (or, with a head done at the start
+                        // pose, m voxels deeper than the band in it) the next m voxels come out
+                        // as the cut-off too (the patch holds it already), unevaluated. What is
+                        // evaluated is then a shell about the head's surface, not its box.
+                        let mut n = 0usize;
+                        while n < out.len() {
+                            let v = &mut out[n];
+                            let i = i_lo + n as i32;
                             let p = DVec3::new(f64::from(i) * voxel, y, z);
                             let mut best = cutoff;
-                            for (inv, c) in self.inverse.iter().zip(&self.centres) {
-                                if (p - *c).length() - rb >= best {
+                            // A lower bound on every sub-pose's distance (exact or its ball's).
+                            let mut lower = f64::INFINITY;
+                            // The start pose first, exactly: a head done there reads it (below).
+                            let mut at_start = f64::INFINITY;
+                            if let Some(moves) = start_free {
+                                // The grids hold the start pose's head already (to the slack):
+                                // the later sub-poses alone; the start pose's distance is at most
+                                // theirs plus how far they moved (1-Lipschitz in translation).
+                                let mut start_upper = f64::INFINITY;
+                                for k in 1..self.inverse.len() {
+                                    let bound = (p - self.centres[k]).length() - rb;
+                                    if bound >= best {
+                                        lower = lower.min(bound);
+                                        continue;
+                                    }
+                                    let d = burr.sdf(self.inverse[k].transform_point3(p));
+                                    start_upper = start_upper.min(d + moves * k as f64);
+                                    lower = lower.min(d);
+                                    best = best.min(d);
+                                }
+                                let beyond = (lower - cutoff - 1e-6) / voxel;
+                                let deep = (-band - f64::from(DONE_SLACK) - 1e-6 - start_upper) / voxel;
+                                *v = if deep >= 0.0 { cutoff as f32 } else { best as f32 };
+                                let jump = beyond.max(deep);
+                                n += 1 + if jump >= 1.0 { jump.floor() as usize } else { 0 };
+                                continue;
+                            }
+                            for (k, (inv, c)) in self.inverse.iter().zip(&self.centres).enumerate() {
+                                let bound = (p - *c).length() - rb;
+                                if bound >= best {
+                                    lower = lower.min(bound);
                                     continue;
                                 }
-                                best = best.min(burr.sdf(inv.transform_point3(p)));
+                                let d = burr.sdf(inv.transform_point3(p));
+                                if k == 0 {
+                                    at_start = d;
+                                }
+                                lower = lower.min(d);
+                                best = best.min(d);
                             }
-                            *v = match done {
-                                Some(d) => unless_done(best as f32, ((p - d.centre).length() - d.radius) as f32, band as f32, cutoff as f32),
-                                None => best as f32,
+                            // 1e-6 mm: room for the f32 rounding of the tests below.
+                            let beyond = (lower - cutoff - 1e-6) / voxel;
+                            let deep = match head_at_start {
+                                Some(h) if at_start.is_finite() => (-band - f64::from(DONE_SLACK) - 1e-6 - (at_start + h.offset)) / voxel,
+                                _ => f64::NEG_INFINITY,
                             };
+                            let jump = beyond.max(deep);
+                            *v = match (done_head, head_at_start) {
+                                // Skipped at sub-pose 0 only when it is beyond the cut-off or
+                                // some later pose came closer, which already beats it.
+                                (_, Some(h)) => unless_done(best as f32, (at_start.min(cutoff) + h.offset) as f32, band as f32, cutoff as f32),
+                                (Some(h), None) => {
+                                    let d_done = burr.sdf(h.to_tool.transform_point3(p)) + h.offset;
+                                    unless_done(best as f32, d_done as f32, band as f32, cutoff as f32)
+                                }
+                                (None, _) => match done {
+                                    Some(d) => unless_done(best as f32, ((p - d.centre).length() - d.radius) as f32, band as f32, cutoff as f32),
+                                    None => best as f32,
+                                },
+                            };
+                            n += 1 + if jump >= 1.0 { jump.floor() as usize } else { 0 };
                         }
                     }
                 }
@@ -256,6 +354,11 @@ fn unless_done(d: f32, d_done: f32, band: f32, cutoff: f32) -> f32 {
     } else {
         d
     }
+}
+
+/// Two poses equal to 1e-12 (mm and rotation entries).
+fn same_pose(a: &DAffine3, b: &DAffine3) -> bool {
+    a.abs_diff_eq(*b, 1e-12)
 }
 
 /// Distance in the (y, z) plane from a point to a segment: a lower bound on the 3-D distance

@@ -429,6 +429,15 @@ impl LevelSet {
             .map_err(openvdb("peer sphere cut"))
     }
 
+    /// Benchmark peer for any tool shape: `meshToLevelSet` of the tool's closed mesh (world mm,
+    /// already at the stroke's pose) in this grid's frame and band, then `csgDifference`.
+    pub fn peer_mesh_cut(&mut self, tool: &TriMesh) -> Result<()> {
+        self.inner
+            .pin_mut()
+            .peer_mesh_cut(&tool.flat_points(), &tool.flat_triangles())
+            .map_err(openvdb("peer mesh cut"))
+    }
+
     /// Benchmark peer: a full `volumeToMesh`; returns the triangle count.
     pub fn peer_full_mesh(&self) -> u64 {
         self.inner.peer_full_mesh()

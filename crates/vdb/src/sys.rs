@@ -94,6 +94,7 @@ pub(crate) mod ffi {
 
         fn peer_sample_sum(self: &LevelSet, xyz: &[f32]) -> f64;
         fn peer_sphere_cut(self: Pin<&mut LevelSet>, center: [f64; 3], radius: f64) -> Result<()>;
+        fn peer_mesh_cut(self: Pin<&mut LevelSet>, points: &[f32], triangles: &[u32]) -> Result<()>;
         fn peer_full_mesh(self: &LevelSet) -> u64;
 
         fn new_reader(grid: &LevelSet) -> UniquePtr<Reader>;

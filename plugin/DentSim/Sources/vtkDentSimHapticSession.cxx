@@ -36,6 +36,7 @@ vtkDentSimHapticSession::vtkDentSimHapticSession() : Internal(new Internals) {
   this->PhantomVoxelSize = d.phantom_voxel_mm;
   this->SetProfile(std::string(d.profile).c_str());
   this->SetFilter(std::string(d.filter).c_str());
+  this->SetBurr(std::string(d.burr).c_str());
   this->SetHandParameters("start=0:0:5.6,target=0:0:2.5,push=1,pedal=1,duration=10");
   this->RealTime = d.realtime;
 }
@@ -47,6 +48,7 @@ vtkDentSimHapticSession::~vtkDentSimHapticSession() {
   this->SetHandParameters(nullptr);
   this->SetProfile(nullptr);
   this->SetFilter(nullptr);
+  this->SetBurr(nullptr);
 }
 
 bool vtkDentSimHapticSession::GetNeedsUpdate() {
@@ -105,10 +107,11 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
   params.profile = Str(this->Profile);
   params.filter = Str(this->Filter);
   params.realtime = this->RealTime;
+  params.burr = Str(this->Burr);
   const std::string signature = std::string(params.tissues_path) + "|" +
     std::to_string(params.phantom_voxel_mm) + "|" + std::string(params.device) + "|" +
     std::string(params.profile) + "|" + std::string(params.filter) + "|" +
-    (params.realtime ? "rt" : "batch");
+    std::string(params.burr) + "|" + (params.realtime ? "rt" : "batch");
   try {
     if (!in.Session || in.StartedWith != signature) {
       in.Session.reset();  // stop the old one first
@@ -170,4 +173,5 @@ void vtkDentSimHapticSession::PrintSelf(ostream& os, vtkIndent indent) {
   os << indent << "HandParameters: " << Str(this->HandParameters) << "\n";
   os << indent << "Profile: " << Str(this->Profile) << " Filter: " << Str(this->Filter)
      << " RealTime: " << this->RealTime << "\n";
+  os << indent << "Burr: " << Str(this->Burr) << "\n";
 }

@@ -33,6 +33,9 @@ public:
   vtkGetStringMacro(Profile);
   vtkSetStringMacro(Filter);
   vtkGetStringMacro(Filter);
+  // A burr spec as the preparation's Burr: catalogue name, ISO number or SHAPE:DIAMETER_MM[:LENGTH_MM].
+  vtkSetStringMacro(Burr);
+  vtkGetStringMacro(Burr);
   vtkSetMacro(RealTime, bool);
   vtkGetMacro(RealTime, bool);
 
@@ -51,6 +54,7 @@ protected:
   char* HandParameters = nullptr;
   char* Profile = nullptr;
   char* Filter = nullptr;
+  char* Burr = nullptr;
   bool RealTime = true;
 
 private:

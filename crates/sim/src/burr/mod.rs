@@ -99,6 +99,8 @@ const SHANK_LENGTH_MM: f64 = 17.0;
 pub const FG_SHANK_DIAMETER_MM: f64 = 1.6;
 /// The round burr sessions and the phantom stroke use unless told otherwise (ISO size 010).
 pub const DEFAULT_ROUND_DIAMETER_MM: f64 = 1.0;
+/// The burr of a session or stroke that names none: the round burr above, as a spec.
+pub const DEFAULT_BURR: &str = "round:1";
 
 #[derive(Clone, Debug, PartialEq)]
 enum Head {

@@ -87,11 +87,19 @@ impl Profile {
                 z_min = z_min.min(q.y);
                 z_max = z_max.max(q.y);
             }
-            if let Piece::Arc { centre, radius, .. } = *piece {
-                // An arc may bulge beyond its end points; its circle bounds it.
-                max_radius = max_radius.max(centre.x + radius);
-                z_min = z_min.min(centre.y - radius);
-                z_max = z_max.max(centre.y + radius);
+            if let Piece::Arc { centre, radius, a, b, ccw } = *piece {
+                // An arc may bulge beyond its end points, at most to its circle's extreme points
+                // that lie on the arc. (The whole circle bounded a flame's shallow ogive, 6 mm
+                // of radius, by a box four times the head's.)
+                let (s, e) = if ccw { (a - centre, b - centre) } else { (b - centre, a - centre) };
+                for dir in [DVec2::X, DVec2::NEG_X, DVec2::Y, DVec2::NEG_Y] {
+                    if s.perp_dot(dir) >= 0.0 && dir.perp_dot(e) >= 0.0 {
+                        let q = centre + dir * radius;
+                        max_radius = max_radius.max(q.x);
+                        z_min = z_min.min(q.y);
+                        z_max = z_max.max(q.y);
+                    }
+                }
             }
         }
         Profile { pieces, max_radius, z_min, z_max }

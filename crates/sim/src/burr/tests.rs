@@ -152,3 +152,8 @@ fn builtin_catalogue_parses() {
     let e = catalogue::Catalogue::parse("[[burr]]\nname = \"x\"\nshape = \"round\"\n", "user.toml").unwrap_err().to_string();
     assert!(e.contains("user.toml") && e.contains("'x'"), "{e}");
 }
+
+#[test]
+fn the_default_spec_is_the_default_round_burr() {
+    assert_eq!(Burr::parse(DEFAULT_BURR).unwrap(), Burr::round(DEFAULT_ROUND_DIAMETER_MM).unwrap());
+}
