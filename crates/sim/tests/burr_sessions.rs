@@ -5,7 +5,8 @@ use dentsim_devices::{DeviceState, BUTTON_CUT};
 use dentsim_sim::burr::Burr;
 use dentsim_sim::cut::Cutter;
 use dentsim_sim::haptics::{HapticCore, HapticParams};
-use dentsim_sim::headless::{replay_to_dir, run_session_to_dir, SessionRequest, LOG_NAME};
+use dentsim_sim::export::LOG_NAME;
+use dentsim_sim::headless::{replay_to_dir, run_session_to_dir, SessionRequest};
 use dentsim_sim::log::{SessionLog, VERSION};
 use dentsim_sim::model::TissueModel;
 use dentsim_sim::phantom::CapsuleTooth;
@@ -96,7 +97,7 @@ fn non_round_sessions_replay_bit_for_bit_and_the_log_names_the_burr() {
         let out = dir.path().join(name);
         let summary = session(&out, &start, spec).unwrap();
         assert_eq!(summary.burr, spec);
-        let removed: f64 = summary.tissues.iter().map(|t| t.removed_mm3).sum();
+        let removed: f64 = summary.tissues.iter().map(|t| t.volumes.removed_mm3).sum();
         assert!(removed > 0.01, "{spec}: removed {removed} mm³");
         let log = SessionLog::read(&out.join(LOG_NAME)).unwrap();
         assert_eq!(log.header.params.burr, spec, "the log records the burr");
@@ -104,7 +105,7 @@ fn non_round_sessions_replay_bit_for_bit_and_the_log_names_the_burr() {
         assert_eq!(replay.hashes_match_session, Some(true), "{spec}");
         assert_eq!((replay.max_force_difference_n, replay.ticks_cut_differently), (0.0, 0), "{spec}");
         for (s, r) in summary.tissues.iter().zip(&replay.tissues) {
-            assert_eq!(s.content_hash, r.content_hash, "{spec}: {}", s.name);
+            assert_eq!(s.content_hash, r.content_hash, "{spec}: {}", s.volumes.name);
         }
     }
 }
