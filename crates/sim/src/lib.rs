@@ -1,37 +1,30 @@
-//! Tissues, burrs, cutting, contact and force, the session loop and its log, over OpenVDB level
-//! sets. Knows nothing of C++.
-
-pub mod bench;
+//! The dentsim core over OpenVDB level sets; knows nothing of C++. Its rooms, each a folder whose
+//! `mod.rs` names what it offers (and may touch only the rooms listed before it):
+//!
+//! - [`tissues`]: the tissue table, the model (one level set per tissue), the capsule phantom,
+//!   tissues from a scan, surfaces (the one mesher), exports.
+//! - [`burr`]: ISO 6360 heads as exact signed distance functions, specs, the catalogue.
+//! - [`cutting`]: the swept burr, the cut, removal rates, dirty chunks, undo.
+//! - [`haptics`]: contact, proxy, force, filters, watchdog, the 1 kHz tick.
+//! - [`session`]: the threads, log, live display, replay, outputs, force plot.
+//! - [`plan`]: tool paths into preparations, the phantom stroke, the demo.
+//!
+//! The types most callers need are re-exported here.
 pub mod burr;
-pub mod contact;
-pub mod cut;
-pub mod demo;
-pub mod dirty;
+pub mod cutting;
 pub mod error;
-pub mod export;
-pub mod filter;
-pub mod force;
 pub mod haptics;
-pub mod history;
-pub mod headless;
-pub mod live;
-pub mod log;
-pub mod mesher;
-pub mod model;
-pub mod path;
-pub mod phantom;
-pub mod plot;
-pub mod preparation;
-pub mod prepare;
-pub mod proxy;
-pub mod removal;
-pub mod replay;
-pub mod scan;
+pub mod plan;
 pub mod session;
-pub mod sweep;
-pub mod tissue;
-pub mod watchdog;
+pub mod tissues;
 
-pub use error::{Error, Result};
 /// The devices crate, for the faces (CLI, plugin) that name a device profile or tool path.
 pub use dentsim_devices as devices;
+pub use error::{Error, Result};
+
+pub use burr::{Burr, Shape, DEFAULT_BURR};
+pub use cutting::{Cutter, Feed, Handoff, StrokeReport};
+pub use haptics::{HapticCore, HapticParams, TickOutput};
+pub use plan::{prepare, PhantomStroke, PrepareOptions, PrepareReport, ToolPath};
+pub use session::{replay, run_session, LiveSession, Session, SessionLog, SessionOptions, SessionOutcome};
+pub use tissues::{surface, CapsuleTooth, Mesher, TissueModel, TissueProps, TissueTable, TissueVolumes, TissuesFromScan};

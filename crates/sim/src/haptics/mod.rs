@@ -1,0 +1,12 @@
+//! Haptics: burr contact against the tissue level sets, the proxy, the force, its filters, the
+//! watchdog, and the tick that joins them at 1 kHz.
+pub mod contact;
+pub mod filter;
+pub mod force;
+pub mod proxy;
+pub mod tick;
+pub mod watchdog;
+
+pub use contact::{BurrSamples, ContactPoint, ContactQuery};
+pub use filter::FilterSpec;
+pub use tick::{HapticCore, HapticParams, TickOutput, CUT_TOLERANCE_MM, STROKE_CONTINUES_VOXELS, TOUCH_VOXELS};

@@ -1,0 +1,14 @@
+//! Sessions: the haptic, mesher and logger threads, the binary log, the live display, replay,
+//! a session's outputs in a folder, the force plot.
+pub mod live;
+pub mod log;
+pub mod outputs;
+pub mod plot;
+pub mod replay;
+pub mod threads;
+
+pub use live::{LiveRequest, LiveSession, LiveState};
+pub use log::{SessionLog, TickRecord};
+pub use outputs::{replay_to_dir, run_session_to_dir, SessionRequest};
+pub use replay::{replay, ReplayOutcome};
+pub use threads::{run_session, Session, SessionOptions, SessionOutcome, DEFAULT_MESHER_HZ, QUEUE_CHANGES};
