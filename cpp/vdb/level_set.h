@@ -65,7 +65,8 @@ public:
   double meta_f64(rust::Str key) const;
   std::array<float, 3> meta_vec3(rust::Str key) const;
 
-  // Benchmark peers: what plain OpenVDB code would do for the same job.
+  // Benchmark peers: what plain OpenVDB code would do for the same job (peer.cc, compiled only
+  // with the Rust feature `peer`).
   double peer_sample_sum(rust::Slice<const float> xyz) const;
   void peer_sphere_cut(std::array<double, 3> center, double radius);
   void peer_mesh_cut(rust::Slice<const float> points, rust::Slice<const uint32_t> triangles);

@@ -1,14 +1,17 @@
 // Compiles cpp/vdb against Debian's OpenVDB 10 (see REFERENCE.md "Building on Debian 12").
 use std::path::Path;
 
-const SOURCES: [&str; 8] =
-    ["level_set.cc", "reader.cc", "cut.cc", "mesh.cc", "files.cc", "peer.cc", "sample.cc", "offset.cc"];
+const SOURCES: [&str; 7] = ["level_set.cc", "reader.cc", "cut.cc", "mesh.cc", "files.cc", "sample.cc", "offset.cc"];
 
 fn main() {
     let cpp = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../cpp");
     let vdb = cpp.join("vdb");
-    cxx_build::bridge("src/sys.rs")
-        .files(SOURCES.iter().map(|s| vdb.join(s)))
+    // The benchmark peers (feature `peer`) are compiled only for the bench crate.
+    let peer = std::env::var_os("CARGO_FEATURE_PEER").is_some();
+    let bridges: &[&str] = if peer { &["src/sys.rs", "src/peer.rs"] } else { &["src/sys.rs"] };
+    let peer_sources = if peer { &["peer.cc"][..] } else { &[] };
+    cxx_build::bridges(bridges)
+        .files(SOURCES.iter().chain(peer_sources).map(|s| vdb.join(s)))
         .include(&cpp)
         .std("c++17")
         // OpenVDB's templates are far too slow unoptimised, even in test builds.
@@ -20,6 +23,7 @@ fn main() {
         println!("cargo:rustc-link-lib={lib}");
     }
     println!("cargo:rerun-if-changed=src/sys.rs");
+    println!("cargo:rerun-if-changed=src/peer.rs");
     for entry in std::fs::read_dir(&vdb).expect("cpp/vdb exists") {
         println!("cargo:rerun-if-changed={}", entry.expect("readable dir").path().display());
     }

@@ -1,5 +1,5 @@
 //! Prints the cutting and re-meshing rows of `dentsim bench` (peer measured in the same run).
-use dentsim_sim::bench::{bench_tooth, cut_stroke, remesh_stroke, BenchConfig};
+use dentsim_bench::{bench_tooth, cut_stroke, remesh_stroke, BenchConfig};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let cfg = BenchConfig::full();

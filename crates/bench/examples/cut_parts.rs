@@ -2,9 +2,9 @@
 //! profiling (`dentsim bench` is the reference).
 use std::time::Instant;
 
-use dentsim_sim::bench::{bench_stroke_tip, bench_tooth};
+use dentsim_bench::{bench_stroke_tip, bench_tooth};
 use dentsim_sim::burr::Burr;
-use dentsim_sim::sweep::{CutBall, Sweep};
+use dentsim_sim::cutting::sweep::{CutBall, Sweep};
 use dentsim_vdb::Measure;
 use glam::DVec3;
 

@@ -1,10 +1,10 @@
 //! Times the bench's cut_stroke ticks over several fresh copies of the tooth and keeps each tick's
 //! fastest run, so the figures hold on a busy machine (for profiling; `dentsim bench` is the
 //! reference).
-use dentsim_sim::bench::{bench_stroke_tip, bench_tooth};
+use dentsim_bench::{bench_stroke_tip, bench_tooth};
 use dentsim_sim::burr::Burr;
-use dentsim_sim::cut::Cutter;
-use dentsim_sim::removal::Feed;
+use dentsim_sim::cutting::cutter::Cutter;
+use dentsim_sim::cutting::removal::Feed;
 
 use std::time::Instant;
 

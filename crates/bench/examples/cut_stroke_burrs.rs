@@ -1,6 +1,6 @@
 //! Times `dentsim bench`'s cut_stroke rows for every burr family alone (for profiling the cut of
 //! one shape without the rest of the bench): `cargo run --release --example cut_stroke_burrs [reps]`.
-use dentsim_sim::bench::{bench_tooth, cut_stroke, cut_stroke_burr, BenchConfig, CUT_STROKE_FAMILIES};
+use dentsim_bench::{bench_tooth, cut_stroke, cut_stroke_burr, BenchConfig, CUT_STROKE_FAMILIES};
 
 fn main() {
     let reps = std::env::args().nth(1).and_then(|a| a.parse().ok()).unwrap_or(100);

@@ -1,6 +1,6 @@
 //! Runs the bench's force_query row many times over, for profiling the contact query
 //! (`dentsim bench` is the reference).
-use dentsim_sim::bench::{bench_tooth, force_query};
+use dentsim_bench::{bench_tooth, force_query};
 
 fn main() {
     let tooth = bench_tooth().unwrap();

@@ -1,6 +1,6 @@
 //! Runs the bench's real-time cutting session on the molar and prints its tick periods (for
 //! profiling the haptic thread; `dentsim bench` is the reference).
-use dentsim_sim::bench::{bench_tooth, loop_period};
+use dentsim_bench::{bench_tooth, loop_period};
 
 fn main() {
     let tooth = bench_tooth().unwrap();

@@ -5,8 +5,8 @@
 use std::collections::HashMap;
 use std::time::Instant;
 
-use dentsim_sim::bench::bench_tooth;
-use dentsim_sim::mesher::surface;
+use dentsim_bench::bench_tooth;
+use dentsim_sim::tissues::surface::surface;
 use dentsim_vdb::{LevelSet, TriMesh};
 
 fn open_edges(m: &TriMesh) -> usize {

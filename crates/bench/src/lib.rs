@@ -10,15 +10,15 @@ use parry3d::query::PointQuery;
 use parry3d::shape::TriMesh as ParryMesh;
 use serde::Serialize;
 
-use crate::burr::Burr;
-use crate::contact::{BurrSamples, ContactQuery};
-use crate::cut::Cutter;
-use crate::mesher::Mesher;
-use crate::removal::Feed;
-use crate::error::Result;
-use crate::model::TissueModel;
-use crate::session::{run_session, SessionOptions, DEFAULT_MESHER_HZ};
-use crate::tissue::TissueTable;
+use dentsim_sim::burr::Burr;
+use dentsim_sim::haptics::contact::{BurrSamples, ContactQuery};
+use dentsim_sim::cutting::cutter::Cutter;
+use dentsim_sim::tissues::surface::Mesher;
+use dentsim_sim::cutting::removal::Feed;
+use dentsim_sim::error::Result;
+use dentsim_sim::tissues::model::TissueModel;
+use dentsim_sim::session::threads::{run_session, SessionOptions, DEFAULT_MESHER_HZ};
+use dentsim_sim::tissues::table::TissueTable;
 
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct BenchRow {
@@ -153,15 +153,15 @@ pub struct BenchTooth {
 pub fn bench_tooth() -> Result<BenchTooth> {
     use dentsim_cbct::{Phantom, PhantomSpec};
     let phantom = Phantom::new(&PhantomSpec::default());
-    let seed = phantom.tooth_seed(36).map(DVec3::from_array).ok_or_else(|| crate::error::invalid("bench tooth", "the phantom has no tooth 36"))?;
-    let request = crate::scan::ScanToTissues { seed_mm: Some(seed.to_array()), ..Default::default() };
+    let seed = phantom.tooth_seed(36).map(DVec3::from_array).ok_or_else(|| dentsim_sim::error::invalid("bench tooth", "the phantom has no tooth 36"))?;
+    let request = dentsim_sim::tissues::from_scan::TissuesFromScan { seed_mm: Some(seed.to_array()), ..Default::default() };
     let (model, _) = request.run(&phantom.scan(), &TissueTable::default(), &mut |_, _| {})?;
-    let enamel = model.get("enamel").ok_or_else(|| crate::error::invalid("bench tooth", "no enamel segmented"))?;
+    let enamel = model.get("enamel").ok_or_else(|| dentsim_sim::error::invalid("bench tooth", "no enamel segmented"))?;
     let mut reader = enamel.grid.reader();
     let occlusal = (0..2000)
         .map(|i| DVec3::new(seed.x, seed.y, seed.z + 10.0 - 0.005 * f64::from(i)))
         .find(|p| reader.value(*p) <= 0.0)
-        .ok_or_else(|| crate::error::invalid("bench tooth", "no enamel above the crown's centre"))?;
+        .ok_or_else(|| dentsim_sim::error::invalid("bench tooth", "no enamel above the crown's centre"))?;
     drop(reader);
     Ok(BenchTooth { model, occlusal })
 }
@@ -304,7 +304,7 @@ pub fn cut_stroke_burr(tooth: &BenchTooth, cfg: BenchConfig, row: &str, spec: &s
             failure.get_or_insert(e);
         }
     });
-    let head = crate::live::burr_mesh(&burr)?;
+    let head = burr.head_surface()?;
     let mut peer_model = tooth.model.clone();
     // The peer takes 0.05–0.5 s a stroke (the whole head voxelised each time): fewer repetitions.
     let peer_reps = (cfg.repetitions / 20).max(3);
@@ -393,7 +393,7 @@ pub fn loop_period(tooth: &BenchTooth, seconds: f64) -> Result<Vec<BenchRow>> {
         a.x, a.y, a.z, b.x, b.y, b.z
     );
     let model = &tooth.model;
-    let path = ScriptedPath::parse(&csv, "bench path").map_err(|e| crate::error::invalid("bench path", e.to_string()))?;
+    let path = ScriptedPath::parse(&csv, "bench path").map_err(|e| dentsim_sim::error::invalid("bench path", e.to_string()))?;
     let (mut periods, mut latency) = (Vec::new(), Vec::new());
     for _ in 0..LOOP_RUNS {
         let options = SessionOptions { realtime: true, mesher_hz: Some(DEFAULT_MESHER_HZ), log_path: None, ..Default::default() };
@@ -417,7 +417,7 @@ pub fn segment_scan(quick: bool) -> Result<BenchRow> {
     let spec = if quick { PhantomSpec::default() } else { PhantomSpec::benchmark() };
     let phantom = Phantom::new(&spec);
     let scan = phantom.scan();
-    let request = crate::scan::ScanToTissues { seed_mm: phantom.tooth_seed(36), ..Default::default() };
+    let request = dentsim_sim::tissues::from_scan::TissuesFromScan { seed_mm: phantom.tooth_seed(36), ..Default::default() };
     let start = Instant::now();
     request.run(&scan, &TissueTable::default(), &mut |_, _| {})?;
     let seconds = Timings(vec![start.elapsed().as_secs_f64() * 1e6]);
@@ -488,7 +488,7 @@ pub fn mesh_surface(tooth: &BenchTooth, cfg: BenchConfig) -> Result<BenchRow> {
     let mut triangles = 0usize;
     let ours = Timings::measure(reps, 1, |_| {
         for t in &tooth.model.tissues {
-            match crate::mesher::surface(&t.grid) {
+            match dentsim_sim::tissues::surface::surface(&t.grid) {
                 Ok(m) => triangles += m.triangles.len(),
                 Err(e) => {
                     failure.get_or_insert(e);

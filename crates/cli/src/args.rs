@@ -2,7 +2,7 @@
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::tissues::table::TissueTable;
 
 /// "X,Y,Z" in mm.
 pub fn parse_xyz(text: &str) -> Result<[f64; 3], String> {

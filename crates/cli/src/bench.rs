@@ -1,5 +1,5 @@
 use anyhow::Result;
-use dentsim_sim::bench::{run_all, segment_scan, BenchConfig, BenchRow};
+use dentsim_bench::{run_all, segment_scan, BenchConfig, BenchRow};
 
 #[derive(clap::Args)]
 pub struct Args {

@@ -8,7 +8,7 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Voxel size of the tissue level sets, mm.
-    #[arg(long, allow_negative_numbers = true, default_value_t = dentsim_sim::model::DEFAULT_VOXEL_MM)]
+    #[arg(long, allow_negative_numbers = true, default_value_t = dentsim_sim::tissues::model::DEFAULT_VOXEL_MM)]
     voxel: f64,
     /// Tissue table overrides (TOML).
     #[arg(long)]
@@ -25,9 +25,9 @@ pub fn run(args: &Args) -> Result<()> {
         bar.set_message(step.to_owned());
         bar.set_position((fraction * 100.0) as u64);
     };
-    let (mut model, mut summary) = dentsim_sim::demo::run(args.voxel, &table, &mut on_step)?;
+    let (mut model, mut summary) = dentsim_sim::plan::demo::run(args.voxel, &table, &mut on_step)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
-    dentsim_sim::demo::write(&mut model, &mut summary, &args.out, &mut |step, f| on_step(step, 0.9 + 0.1 * f))?;
+    dentsim_sim::plan::demo::write(&mut model, &mut summary, &args.out, &mut |step, f| on_step(step, 0.9 + 0.1 * f))?;
     bar.finish_and_clear();
     println!("tooth 36 of the molar phantom, class I cavity (round:1.0, then cylinder_flat:1.0:4)");
     for t in &summary.tissues {

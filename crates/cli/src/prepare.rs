@@ -1,7 +1,7 @@
 use std::path::PathBuf;
 
 use anyhow::{bail, Result};
-use dentsim_sim::prepare::{prepare_to_dir, PrepareOptions};
+use dentsim_sim::plan::prepare::{prepare_to_dir, PrepareOptions};
 
 #[derive(clap::Args)]
 pub struct Args {

@@ -2,8 +2,8 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
-use dentsim_sim::export::{FORCES_CSV_NAME, FORCES_PNG_NAME, REPLAY_SUMMARY_NAME, TISSUES_NAME};
-use dentsim_sim::headless::replay_to_dir;
+use dentsim_sim::tissues::export::{FORCES_CSV_NAME, FORCES_PNG_NAME, REPLAY_SUMMARY_NAME, TISSUES_NAME};
+use dentsim_sim::session::outputs::replay_to_dir;
 
 #[derive(clap::Args)]
 pub struct Args {

@@ -2,7 +2,7 @@ use std::path::PathBuf;
 
 use anyhow::{bail, Context, Result};
 use dentsim_cbct::{Label, ReadOptions};
-use dentsim_sim::scan::ScanToTissues;
+use dentsim_sim::tissues::from_scan::TissuesFromScan;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -12,7 +12,7 @@ pub struct Args {
     #[arg(long)]
     out: PathBuf,
     /// Voxel size of the tissue level sets, mm (finer than the scan's).
-    #[arg(long, default_value_t = dentsim_sim::model::DEFAULT_VOXEL_MM)]
+    #[arg(long, default_value_t = dentsim_sim::tissues::model::DEFAULT_VOXEL_MM)]
     voxel: f64,
     /// FDI (ISO 3950) number of the tooth.
     #[arg(long, default_value_t = 36)]
@@ -34,12 +34,12 @@ pub struct Args {
 pub fn run(args: &Args) -> Result<()> {
     let table = crate::args::tissue_table(args.tissues.as_deref())?;
     let thresholds = parse_thresholds(&args.thresholds)?;
-    let request = ScanToTissues {
+    let request = TissuesFromScan {
         voxel_size_mm: args.voxel,
         fdi: args.tooth,
         seed_mm: args.point,
         thresholds,
-        ..ScanToTissues::default()
+        ..TissuesFromScan::default()
     };
     request.validate()?;
     if !(args.max_memory_gib.is_finite() && args.max_memory_gib > 0.0) {

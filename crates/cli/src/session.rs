@@ -3,9 +3,9 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use dentsim_sim::devices::DeviceProfile;
-use dentsim_sim::export::{LOG_NAME, SUMMARY_NAME, TISSUES_NAME};
-use dentsim_sim::filter::FilterSpec;
-use dentsim_sim::headless::{run_session_to_dir, SessionRequest};
+use dentsim_sim::tissues::export::{LOG_NAME, SUMMARY_NAME, TISSUES_NAME};
+use dentsim_sim::haptics::filter::FilterSpec;
+use dentsim_sim::session::outputs::{run_session_to_dir, SessionRequest};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -30,7 +30,7 @@ pub struct Args {
     realtime: bool,
     /// The burr, as `prepare` takes it: a catalogue name (`flame_016`), an ISO 6360 number
     /// (`806 314 001 524 010`) or SHAPE:DIAMETER_MM[:LENGTH_MM] (`cylinder_flat:1.2:4`).
-    #[arg(long, default_value = dentsim_sim::haptics::DEFAULT_BURR)]
+    #[arg(long, default_value = dentsim_sim::haptics::tick::DEFAULT_BURR)]
     burr: String,
 }
 

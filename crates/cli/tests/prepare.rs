@@ -2,8 +2,8 @@
 use std::path::Path;
 use std::process::{Command, Output};
 
-use dentsim_sim::phantom::CapsuleTooth;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::tissues::capsule::CapsuleTooth;
+use dentsim_sim::tissues::table::TissueTable;
 
 fn dentsim(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_dentsim")).args(args).env("RUST_BACKTRACE", "0").output().unwrap()
@@ -45,7 +45,7 @@ fn a_groove_is_cut_and_reported() {
         assert!(out.join(format!("{name}.vtp")).exists() && out.join(format!("{name}.stl")).exists());
     }
     // The prepared tissues load again and are smaller.
-    let again = dentsim_sim::model::TissueModel::load(&out.join("tissues.vdb"), &TissueTable::default()).unwrap();
+    let again = dentsim_sim::tissues::model::TissueModel::load(&out.join("tissues.vdb"), &TissueTable::default()).unwrap();
     let enamel = json["tissues"].as_array().unwrap().iter().find(|t| t["name"] == "enamel").unwrap();
     let reloaded = again.get("enamel").unwrap().grid.volume();
     assert!((reloaded - enamel["volume_after_mm3"].as_f64().unwrap()).abs() < 1e-9, "{enamel}");

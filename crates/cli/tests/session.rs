@@ -2,9 +2,9 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use dentsim_sim::model::TissueModel;
-use dentsim_sim::phantom::CapsuleTooth;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::tissues::model::TissueModel;
+use dentsim_sim::tissues::capsule::CapsuleTooth;
+use dentsim_sim::tissues::table::TissueTable;
 
 fn dentsim() -> Command {
     Command::new(env!("CARGO_BIN_EXE_dentsim"))
@@ -68,7 +68,7 @@ fn scripted_session_writes_everything_and_replay_is_bit_exact() {
     assert_eq!(tissue(&summary, "pulp")["removed_mm3"], 0.0);
 
     // The log has a record per tick; the prepared tissues load back with the summary's hashes.
-    let log = dentsim_sim::log::SessionLog::read(&out.join("session.dslog")).unwrap();
+    let log = dentsim_sim::session::log::SessionLog::read(&out.join("session.dslog")).unwrap();
     assert_eq!(log.records.len() as u64, ticks);
     let prepared = TissueModel::load(&out.join("tissues.vdb"), &TissueTable::default()).unwrap();
     for t in &prepared.tissues {

@@ -3,8 +3,8 @@
 use std::path::Path;
 use std::process::Command;
 
-use dentsim_sim::phantom::CapsuleTooth;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::tissues::capsule::CapsuleTooth;
+use dentsim_sim::tissues::table::TissueTable;
 
 fn dentsim() -> Command {
     Command::new(env!("CARGO_BIN_EXE_dentsim"))
@@ -27,7 +27,7 @@ fn session_cuts_with_the_burr_named_and_replays_it() {
     assert_eq!(summary["burr"], "taper_flat:1.2:3");
     let enamel = summary["tissues"].as_array().unwrap().iter().find(|t| t["name"] == "enamel").unwrap().clone();
     assert!(enamel["removed_mm3"].as_f64().unwrap() > 0.005, "{enamel}");
-    let log = dentsim_sim::log::SessionLog::read(&out.join("session.dslog")).unwrap();
+    let log = dentsim_sim::session::log::SessionLog::read(&out.join("session.dslog")).unwrap();
     assert_eq!(log.header.params.burr, "taper_flat:1.2:3");
 
     let again = dir.path().join("replay");

@@ -3,10 +3,10 @@
 //! no panic crosses: each call runs under `catch_unwind`.
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use dentsim_sim::model::{Tissue, TissueVolumes};
-use dentsim_sim::preparation::PhantomStroke;
-use dentsim_sim::live::{LiveRequest, LiveSession, LiveState};
-use dentsim_sim::tissue::{TissueProps, TissueTable};
+use dentsim_sim::tissues::model::{Tissue, TissueVolumes};
+use dentsim_sim::plan::phantom_stroke::PhantomStroke;
+use dentsim_sim::session::live::{LiveRequest, LiveSession, LiveState};
+use dentsim_sim::tissues::table::{TissueProps, TissueTable};
 use dentsim_vdb::TriMesh;
 
 #[cxx::bridge(namespace = "dentsim::ffi")]
@@ -175,7 +175,7 @@ pub fn phantom_stroke(params: &StrokeParams) -> Result<Vec<TissueSurface>, Strin
 /// Every tissue of a .vdb whose level-set grids are named by tissue, as surfaces.
 pub fn read_tissues(path: &str) -> Result<Vec<TissueSurface>, String> {
     guarded("read tissues", || {
-        let model = dentsim_sim::model::TissueModel::load(std::path::Path::new(path), &TissueTable::default())
+        let model = dentsim_sim::tissues::model::TissueModel::load(std::path::Path::new(path), &TissueTable::default())
             .map_err(|e| e.to_string())?;
         unchanged_surfaces(&model)
     })
@@ -196,7 +196,7 @@ pub fn tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &Tiss
             source,
         )
         .map_err(|e| format!("input image: {e}"))?;
-        let request = dentsim_sim::scan::ScanToTissues {
+        let request = dentsim_sim::tissues::from_scan::TissuesFromScan {
             voxel_size_mm: params.voxel_size_mm,
             fdi: params.fdi,
             seed_mm: params.use_seed.then_some(params.seed_mm),
@@ -217,10 +217,10 @@ pub fn prepare_tissues(
     cut: &[f64],
 ) -> Result<Vec<TissueSurface>, String> {
     guarded("dental preparation", || {
-        use dentsim_sim::prepare::{PathSource, PreparationRequest};
+        use dentsim_sim::plan::prepare::{PathSource, PreparationRequest};
         let tissues = (!params.tissues_path.is_empty()).then(|| std::path::Path::new(params.tissues_path.as_str()));
         let path = if params.use_polyline {
-            PathSource::Polyline(dentsim_sim::path::PolylineArrays { points, orientation, time, rpm, cut })
+            PathSource::Polyline(dentsim_sim::plan::path::PolylineArrays { points, orientation, time, rpm, cut })
         } else if params.path_csv.is_empty() {
             return Err("tool path: neither a polyline input nor a CSV file was given".into());
         } else {
@@ -239,18 +239,18 @@ pub fn prepare_tissues(
 }
 
 /// Surfaces of a cut model with each tissue's volume figures.
-fn cut_surfaces(model: &dentsim_sim::model::TissueModel, volumes: &[TissueVolumes]) -> Result<Vec<TissueSurface>, String> {
+fn cut_surfaces(model: &dentsim_sim::tissues::model::TissueModel, volumes: &[TissueVolumes]) -> Result<Vec<TissueSurface>, String> {
     model.tissues.iter().zip(volumes).map(|(t, v)| surface(t, v)).collect()
 }
 
 /// Surfaces of a model nothing has cut yet.
-fn unchanged_surfaces(model: &dentsim_sim::model::TissueModel) -> Result<Vec<TissueSurface>, String> {
+fn unchanged_surfaces(model: &dentsim_sim::tissues::model::TissueModel) -> Result<Vec<TissueSurface>, String> {
     cut_surfaces(model, &TissueVolumes::unchanged(model))
 }
 
 /// A tissue's mesh and properties with the volumes the caller measured.
 fn surface(t: &Tissue, v: &TissueVolumes) -> Result<TissueSurface, String> {
-    let mesh = dentsim_sim::mesher::surface(&t.grid).map_err(|e| e.to_string())?;
+    let mesh = dentsim_sim::tissues::surface::surface(&t.grid).map_err(|e| e.to_string())?;
     Ok(mesh_surface(&t.props, &mesh, v.volume_before_mm3, v.volume_after_mm3, v.removed_mm3))
 }
 
@@ -281,12 +281,12 @@ pub struct HapticSession {
 fn default_session() -> SessionParams {
     SessionParams {
         tissues_path: String::new(),
-        phantom_voxel_mm: dentsim_sim::model::DEFAULT_VOXEL_MM,
+        phantom_voxel_mm: dentsim_sim::tissues::model::DEFAULT_VOXEL_MM,
         device: String::new(),
         profile: dentsim_sim::devices::DeviceProfile::DEFAULT_NAME.into(),
-        filter: dentsim_sim::filter::FilterSpec::DEFAULT_NAME.into(),
+        filter: dentsim_sim::haptics::filter::FilterSpec::DEFAULT_NAME.into(),
         realtime: true,
-        burr: dentsim_sim::haptics::DEFAULT_BURR.into(),
+        burr: dentsim_sim::haptics::tick::DEFAULT_BURR.into(),
     }
 }
 
@@ -299,7 +299,7 @@ pub fn start_session(params: &SessionParams) -> Result<Box<HapticSession>, Strin
             profile: params.profile.clone(),
             filter: params.filter.clone(),
             realtime: params.realtime,
-            mesher_hz: dentsim_sim::session::DEFAULT_MESHER_HZ,
+            mesher_hz: dentsim_sim::session::threads::DEFAULT_MESHER_HZ,
         };
         let live = LiveSession::start_with_burr(&request, &params.burr).map_err(|e| e.to_string())?;
         Ok(Box::new(HapticSession { live, last: LiveState::default() }))

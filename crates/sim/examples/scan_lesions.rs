@@ -1,9 +1,9 @@
-//! ScanToTissues on the molar phantom with the caries lesion (and optionally the restoration) at
+//! TissuesFromScan on the molar phantom with the caries lesion (and optionally the restoration) at
 //! several blur levels: level-set volumes against the phantom's truth.
 //! `cargo run --release -p dentsim-sim --example scan_lesions [metal] [blur=0.15,0.2]`
 use dentsim_cbct::{Label, Phantom, PhantomSpec};
-use dentsim_sim::scan::ScanToTissues;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::tissues::from_scan::TissuesFromScan;
+use dentsim_sim::tissues::table::TissueTable;
 use std::time::Instant;
 
 fn main() {
@@ -15,7 +15,7 @@ fn main() {
     for blur in blurs {
         let phantom = Phantom::new(&PhantomSpec { caries, restoration: metal, blur_sigma_mm: blur, ..Default::default() });
         let scan = phantom.scan();
-        let request = ScanToTissues { seed_mm: phantom.tooth_seed(36), ..Default::default() };
+        let request = TissuesFromScan { seed_mm: phantom.tooth_seed(36), ..Default::default() };
         let t = Instant::now();
         let (model, report) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).unwrap();
         let secs = t.elapsed().as_secs_f64();

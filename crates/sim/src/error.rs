@@ -23,6 +23,7 @@ impl From<dentsim_atomic::Error> for Error {
     }
 }
 
-pub(crate) fn invalid(what: impl Into<String>, message: impl Into<String>) -> Error {
+/// An [`Error::Invalid`]: `what` names the input or field, `message` what was wrong with it.
+pub fn invalid(what: impl Into<String>, message: impl Into<String>) -> Error {
     Error::Invalid { what: what.into(), message: message.into() }
 }

@@ -3,14 +3,14 @@
 //! the burr, and bad specs are refused naming the burr.
 use dentsim_devices::{DeviceState, BUTTON_CUT};
 use dentsim_sim::burr::Burr;
-use dentsim_sim::cut::Cutter;
-use dentsim_sim::haptics::{HapticCore, HapticParams};
-use dentsim_sim::export::LOG_NAME;
-use dentsim_sim::headless::{replay_to_dir, run_session_to_dir, SessionRequest};
-use dentsim_sim::log::{SessionLog, VERSION};
-use dentsim_sim::model::TissueModel;
-use dentsim_sim::phantom::CapsuleTooth;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::cutting::cutter::Cutter;
+use dentsim_sim::haptics::tick::{HapticCore, HapticParams};
+use dentsim_sim::tissues::export::LOG_NAME;
+use dentsim_sim::session::outputs::{replay_to_dir, run_session_to_dir, SessionRequest};
+use dentsim_sim::session::log::{SessionLog, VERSION};
+use dentsim_sim::tissues::model::TissueModel;
+use dentsim_sim::tissues::capsule::CapsuleTooth;
+use dentsim_sim::tissues::table::TissueTable;
 use glam::{DAffine3, DQuat, DVec3};
 
 /// One burr of each family, heads short enough that a test session stays quick.
@@ -75,7 +75,7 @@ fn every_family_cuts_in_a_session_what_its_strokes_cut_when_prepared() {
     }
 }
 
-fn session(dir: &std::path::Path, start: &std::path::Path, burr: &str) -> dentsim_sim::Result<dentsim_sim::headless::SessionSummary> {
+fn session(dir: &std::path::Path, start: &std::path::Path, burr: &str) -> dentsim_sim::Result<dentsim_sim::session::outputs::SessionSummary> {
     let request = SessionRequest {
         tissues: start.to_owned(),
         device: "hand:start=0.2:0:5.8,target=0.2:0:4.2,push=1,pedal=1,duration=0.6".into(),

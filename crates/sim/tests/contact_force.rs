@@ -5,11 +5,11 @@ mod common;
 use common::*;
 use dentsim_devices::DeviceProfile;
 use dentsim_sim::burr::Burr;
-use dentsim_sim::cut::Cutter;
-use dentsim_sim::filter::FilterSpec;
-use dentsim_sim::haptics::{HapticCore, HapticParams};
-use dentsim_sim::phantom::CapsuleTooth;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::cutting::cutter::Cutter;
+use dentsim_sim::haptics::filter::FilterSpec;
+use dentsim_sim::haptics::tick::{HapticCore, HapticParams};
+use dentsim_sim::tissues::capsule::CapsuleTooth;
+use dentsim_sim::tissues::table::TissueTable;
 use glam::{DAffine3, DVec3};
 use proptest::prelude::*;
 
@@ -89,8 +89,8 @@ fn stiffness_changes_at_the_dentin_enamel_junction_and_drops_at_the_pulp() {
 }
 
 #[allow(non_snake_case)]
-fn TissueModel_clone(m: &dentsim_sim::model::TissueModel) -> dentsim_sim::model::TissueModel {
-    let mut out = dentsim_sim::model::TissueModel::new(m.source.clone(), m.fdi_tooth);
+fn TissueModel_clone(m: &dentsim_sim::tissues::model::TissueModel) -> dentsim_sim::tissues::model::TissueModel {
+    let mut out = dentsim_sim::tissues::model::TissueModel::new(m.source.clone(), m.fdi_tooth);
     for t in &m.tissues {
         out.push(t.props.clone(), t.grid.clone()).unwrap();
     }
@@ -168,7 +168,7 @@ proptest! {
     }
 }
 
-fn model_with_stiffness(k: f64) -> dentsim_sim::model::TissueModel {
+fn model_with_stiffness(k: f64) -> dentsim_sim::tissues::model::TissueModel {
     let mut m = box_model("enamel", DVec3::new(-1.5, -1.5, -1.0), DVec3::new(1.5, 1.5, 0.0));
     m.tissues[0].props.stiffness_n_per_mm = k;
     m

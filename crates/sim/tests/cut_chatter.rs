@@ -18,10 +18,10 @@ mod common;
 
 use common::*;
 use dentsim_devices::{Device, HandParams, ScriptedPath, SimulatedHand};
-use dentsim_sim::haptics::{HapticCore, HapticParams};
-use dentsim_sim::model::TissueModel;
-use dentsim_sim::phantom::CapsuleTooth;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::haptics::tick::{HapticCore, HapticParams};
+use dentsim_sim::tissues::model::TissueModel;
+use dentsim_sim::tissues::capsule::CapsuleTooth;
+use dentsim_sim::tissues::table::TissueTable;
 use glam::DVec3;
 
 /// Per tick: |raw contact force| (N), contact tissue, volume removed and the rate law's volume

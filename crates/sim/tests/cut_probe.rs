@@ -5,7 +5,7 @@ mod common;
 
 use common::*;
 use dentsim_devices::{DeviceState, BUTTON_CUT};
-use dentsim_sim::haptics::{HapticCore, HapticParams};
+use dentsim_sim::haptics::tick::{HapticCore, HapticParams};
 use glam::{DAffine3, DVec3};
 
 #[test]

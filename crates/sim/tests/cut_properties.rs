@@ -7,10 +7,10 @@
 use std::sync::OnceLock;
 
 use dentsim_sim::burr::{Burr, Shape};
-use dentsim_sim::cut::Cutter;
-use dentsim_sim::model::TissueModel;
-use dentsim_sim::sweep::GAP_VOXELS;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::cutting::cutter::Cutter;
+use dentsim_sim::tissues::model::TissueModel;
+use dentsim_sim::cutting::sweep::GAP_VOXELS;
+use dentsim_sim::tissues::table::TissueTable;
 use dentsim_vdb::LevelSet;
 use glam::{DAffine3, DQuat, DVec3, IVec3};
 use proptest::prelude::*;

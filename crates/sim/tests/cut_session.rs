@@ -3,12 +3,12 @@ mod common;
 
 use common::triangle_set;
 use dentsim_sim::burr::{Burr, Shape};
-use dentsim_sim::cut::Cutter;
-use dentsim_sim::mesher::Mesher;
-use dentsim_sim::model::TissueModel;
-use dentsim_sim::phantom::CapsuleTooth;
-use dentsim_sim::removal::Feed;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::cutting::cutter::Cutter;
+use dentsim_sim::tissues::surface::Mesher;
+use dentsim_sim::tissues::model::TissueModel;
+use dentsim_sim::tissues::capsule::CapsuleTooth;
+use dentsim_sim::cutting::removal::Feed;
+use dentsim_sim::tissues::table::TissueTable;
 use glam::{DAffine3, DMat3, DQuat, DVec3, IVec3};
 
 fn tooth(voxel: f64) -> TissueModel {
@@ -120,7 +120,7 @@ fn removal_rate_limits_each_tick_and_unlimited_is_geometric() {
     // Plunge 0.4 mm into the occlusal enamel over 40 ticks of 1 ms, at 1 N and reference speed.
     let top = CapsuleTooth::default().outer.top();
     let tip = |i: usize| at(0.0, 0.0, top - 0.01 * i as f64);
-    let (force_n, rpm, dt_s) = (1.0, dentsim_sim::removal::REFERENCE_RPM, 0.001);
+    let (force_n, rpm, dt_s) = (1.0, dentsim_sim::cutting::removal::REFERENCE_RPM, 0.001);
     let mut limited = tooth(0.05);
     let mut geometric = tooth(0.05);
     let (mut cut_limited, mut cut_geometric) = (Cutter::default(), Cutter::default());

@@ -1,5 +1,5 @@
 //! The display-side session: polls never block, the final state is the session's result.
-use dentsim_sim::live::{LiveRequest, LiveSession};
+use dentsim_sim::session::live::{LiveRequest, LiveSession};
 
 /// Down into the phantom's top (z = 5.0) with the pedal held, held 0.3 mm deep while the burr
 /// cuts its way down at the enamel's removal rate, then pedal up and pressing 0.2 mm further: the
@@ -70,8 +70,8 @@ fn bad_inputs_are_refused_before_starting() {
 /// before − now is what the session's grids lost.
 #[test]
 fn final_volumes_are_the_grids() {
-    use dentsim_sim::phantom::CapsuleTooth;
-    use dentsim_sim::tissue::TissueTable;
+    use dentsim_sim::tissues::capsule::CapsuleTooth;
+    use dentsim_sim::tissues::table::TissueTable;
     let dir = tempfile::tempdir().unwrap();
     let mut live = LiveSession::start(&request(dir.path())).unwrap();
     let start = CapsuleTooth::default().build(0.08, &TissueTable::default()).unwrap();

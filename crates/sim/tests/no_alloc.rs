@@ -4,7 +4,7 @@ mod common;
 mod alloc_counter;
 
 use common::*;
-use dentsim_sim::haptics::{HapticCore, HapticParams};
+use dentsim_sim::haptics::tick::{HapticCore, HapticParams};
 use glam::DVec3;
 
 #[test]

@@ -6,7 +6,7 @@ mod alloc_counter;
 
 use common::*;
 use dentsim_devices::{DeviceState, BUTTON_CUT};
-use dentsim_sim::haptics::{HapticCore, HapticParams};
+use dentsim_sim::haptics::tick::{HapticCore, HapticParams};
 use glam::{DAffine3, DQuat, DVec3};
 
 #[test]

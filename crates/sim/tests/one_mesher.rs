@@ -6,11 +6,11 @@ use std::collections::HashMap;
 
 use common::triangle_set;
 use dentsim_devices::{HandParams, SimulatedHand};
-use dentsim_sim::export::write_model;
-use dentsim_sim::mesher::{surface, Mesher};
-use dentsim_sim::phantom::CapsuleTooth;
-use dentsim_sim::session::{run_session, SessionOptions};
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::tissues::export::write_model;
+use dentsim_sim::tissues::surface::{surface, Mesher};
+use dentsim_sim::tissues::capsule::CapsuleTooth;
+use dentsim_sim::session::threads::{run_session, SessionOptions};
+use dentsim_sim::tissues::table::TissueTable;
 use dentsim_vdb::TriMesh;
 use glam::{DVec3, Vec3};
 

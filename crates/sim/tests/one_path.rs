@@ -2,8 +2,8 @@
 //! scripted device and from `dentsim prepare` (and the plugin's CSV input): both read it with
 //! `dentsim_devices::ToolPath`.
 use dentsim_devices::DeviceSpec;
-use dentsim_sim::prepare::{PathSource, PreparationRequest};
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::plan::prepare::{PathSource, PreparationRequest};
+use dentsim_sim::tissues::table::TissueTable;
 
 const HEAD: &str = "t,x,y,z,qw,qx,qy,qz";
 

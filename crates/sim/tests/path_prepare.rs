@@ -1,9 +1,9 @@
 //! Tool path CSV parsing, its errors (row and column named), and `prepare` along a path.
 use dentsim_sim::burr::Burr;
-use dentsim_sim::path::{PathLimits, ToolPath};
-use dentsim_sim::phantom::CapsuleTooth;
-use dentsim_sim::prepare::{prepare, PrepareOptions};
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::plan::path::{PathLimits, ToolPath};
+use dentsim_sim::tissues::capsule::CapsuleTooth;
+use dentsim_sim::plan::prepare::{prepare, PrepareOptions};
+use dentsim_sim::tissues::table::TissueTable;
 
 fn parse(text: &str) -> Result<ToolPath, String> {
     ToolPath::parse_csv(text, "path.csv", PathLimits::default()).map_err(|e| e.to_string())
@@ -76,7 +76,7 @@ fn prepare_cuts_along_the_path_and_reports_per_stroke() {
     let path = parse(&groove_csv()).unwrap();
     let burr = Burr::parse("806 314 001 524 010").unwrap();
     let mut fractions = Vec::new();
-    let report = dentsim_sim::prepare::prepare_with_progress(&mut model, &path, &burr, &PrepareOptions::default(), &mut |f| fractions.push(f)).unwrap();
+    let report = dentsim_sim::plan::prepare::prepare_with_progress(&mut model, &path, &burr, &PrepareOptions::default(), &mut |f| fractions.push(f)).unwrap();
     assert_eq!(report.strokes.len(), 1, "{:?}", report.strokes);
     assert_eq!(report.segments, 31);
     assert!(fractions.windows(2).all(|w| w[0] <= w[1]) && *fractions.last().unwrap() == 1.0);
@@ -95,7 +95,7 @@ fn prepare_cuts_along_the_path_and_reports_per_stroke() {
 
 #[test]
 fn polylines_are_checked_as_csv_paths_and_name_the_point_and_array() {
-    use dentsim_sim::path::PolylineArrays;
+    use dentsim_sim::plan::path::PolylineArrays;
     let points = [0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.2, 0.0, 0.0];
     let orientation = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0];
     let ok = PolylineArrays { points: &points, orientation: &orientation, ..Default::default() };

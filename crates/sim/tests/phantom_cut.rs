@@ -2,11 +2,11 @@
 use std::f64::consts::PI;
 
 use dentsim_sim::burr::Burr;
-use dentsim_sim::cut::Cutter;
-use dentsim_sim::model::TissueModel;
-use dentsim_sim::phantom::CapsuleTooth;
-use dentsim_sim::preparation::PhantomStroke;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::cutting::cutter::Cutter;
+use dentsim_sim::tissues::model::TissueModel;
+use dentsim_sim::tissues::capsule::CapsuleTooth;
+use dentsim_sim::plan::phantom_stroke::PhantomStroke;
+use dentsim_sim::tissues::table::TissueTable;
 use glam::{DAffine3, DVec3};
 
 fn phantom(voxel: f64) -> TissueModel {

@@ -1,8 +1,8 @@
 //! The molar phantom's scan through calibration, segmentation and level sets, measured against the
 //! phantom's continuous ground truth (issue 3's accuracy table).
 use dentsim_cbct::{dice, Label, Phantom, PhantomSpec};
-use dentsim_sim::scan::ScanToTissues;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::tissues::from_scan::TissuesFromScan;
+use dentsim_sim::tissues::table::TissueTable;
 use dentsim_vdb::LevelSet;
 use glam::DVec3;
 
@@ -10,7 +10,7 @@ use glam::DVec3;
 fn phantom_tissues_match_ground_truth() {
     let phantom = Phantom::new(&PhantomSpec::default());
     let scan = phantom.scan();
-    let request = ScanToTissues { seed_mm: phantom.tooth_seed(36), ..Default::default() };
+    let request = TissuesFromScan { seed_mm: phantom.tooth_seed(36), ..Default::default() };
     let (model, report) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).unwrap();
     let scan_voxel = scan.spacing[0];
     let (lo, hi) = phantom.tooth_bounds(36).unwrap();
@@ -76,7 +76,7 @@ fn phantom_tissues_match_ground_truth() {
 fn blurred_scan_with_caries_keeps_pulp_and_lesion() {
     let phantom = Phantom::new(&PhantomSpec { caries: true, blur_sigma_mm: 0.2, ..Default::default() });
     let scan = phantom.scan();
-    let request = ScanToTissues { seed_mm: phantom.tooth_seed(36), ..Default::default() };
+    let request = TissuesFromScan { seed_mm: phantom.tooth_seed(36), ..Default::default() };
     let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).unwrap();
     let truth = phantom.tooth_volumes_mm3(36);
     println!("tissue   true mm3  ours mm3   error");
@@ -107,7 +107,7 @@ fn blurred_scan_with_caries_keeps_pulp_and_lesion() {
 #[test]
 fn the_tooth_is_found_from_the_scan_centre_without_a_seed() {
     let phantom = Phantom::new(&PhantomSpec::default());
-    let (model, report) = ScanToTissues::default().run(&phantom.scan(), &TissueTable::default(), &mut |_, _| {}).unwrap();
+    let (model, report) = TissuesFromScan::default().run(&phantom.scan(), &TissueTable::default(), &mut |_, _| {}).unwrap();
     assert!(model.get("enamel").is_some() && model.get("dentin").is_some());
     assert!(report.calibration.method.contains("peaks") || report.calibration.method.contains("otsu"));
 }

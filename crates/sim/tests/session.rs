@@ -3,13 +3,13 @@ mod common;
 
 use common::triangle_set;
 use dentsim_devices::{HandParams, ScriptedPath, SimulatedHand};
-use dentsim_sim::log::SessionLog;
-use dentsim_sim::mesher::Mesher;
-use dentsim_sim::model::TissueModel;
-use dentsim_sim::phantom::CapsuleTooth;
-use dentsim_sim::replay::{replay, write_force_csv};
-use dentsim_sim::session::{run_session, SessionOptions};
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::session::log::SessionLog;
+use dentsim_sim::tissues::surface::Mesher;
+use dentsim_sim::tissues::model::TissueModel;
+use dentsim_sim::tissues::capsule::CapsuleTooth;
+use dentsim_sim::session::replay::{replay, write_force_csv};
+use dentsim_sim::session::threads::{run_session, SessionOptions};
+use dentsim_sim::tissues::table::TissueTable;
 use std::path::PathBuf;
 
 use glam::DVec3;
@@ -105,7 +105,7 @@ fn replay_reproduces_the_session_bit_for_bit() {
     let names: Vec<String> = again.model.tissues.iter().map(|t| t.props.name.clone()).collect();
     let colours: Vec<[f32; 3]> = again.model.tissues.iter().map(|t| t.props.colour).collect();
     write_force_csv(&dir.path().join("forces.csv"), &again.forces, &names).unwrap();
-    dentsim_sim::plot::plot_forces(&dir.path().join("forces.png"), &again.forces, &colours, 800, 400).unwrap();
+    dentsim_sim::session::plot::plot_forces(&dir.path().join("forces.png"), &again.forces, &colours, 800, 400).unwrap();
     let png = std::fs::read(dir.path().join("forces.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
     // A different start model is refused.
@@ -115,7 +115,7 @@ fn replay_reproduces_the_session_bit_for_bit() {
 fn tooth_cut() -> TissueModel {
     let mut m = tooth();
     let at = |z: f64| glam::DAffine3::from_translation(DVec3::new(0.0, 0.0, z));
-    dentsim_sim::cut::Cutter::default().cut(&mut m, &dentsim_sim::burr::Burr::round(1.0).unwrap(), at(6.0), at(4.8)).unwrap();
+    dentsim_sim::cutting::cutter::Cutter::default().cut(&mut m, &dentsim_sim::burr::Burr::round(1.0).unwrap(), at(6.0), at(4.8)).unwrap();
     m
 }
 

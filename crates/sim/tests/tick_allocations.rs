@@ -4,10 +4,10 @@
 mod alloc_counter;
 
 use dentsim_sim::burr::Burr;
-use dentsim_sim::cut::Cutter;
-use dentsim_sim::phantom::CapsuleTooth;
-use dentsim_sim::removal::Feed;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::cutting::cutter::Cutter;
+use dentsim_sim::tissues::capsule::CapsuleTooth;
+use dentsim_sim::cutting::removal::Feed;
+use dentsim_sim::tissues::table::TissueTable;
 use glam::{DAffine3, DQuat, DVec3};
 
 
@@ -67,6 +67,6 @@ fn voxelizing_keeps_every_value_and_compacting_gives_the_tiles_back() {
     assert_eq!(model.tissues.iter().map(|t| t.grid.content_hash()).collect::<Vec<_>>(), hashes);
 }
 
-fn leaf_count(model: &dentsim_sim::model::TissueModel) -> u64 {
+fn leaf_count(model: &dentsim_sim::tissues::model::TissueModel) -> u64 {
     model.tissues.iter().map(|t| t.grid.leaf_count()).sum()
 }

@@ -13,7 +13,7 @@ use crate::LEAF_DIM;
 
 /// A narrow-band level set: `FloatGrid` of class level set, background = half width in mm.
 pub struct LevelSet {
-    inner: UniquePtr<ffi::LevelSet>,
+    pub(crate) inner: UniquePtr<ffi::LevelSet>,
     /// See [`LevelSet::stamp`].
     stamp: u64,
 }
@@ -265,7 +265,7 @@ impl LevelSet {
     }
 
     /// The C++ grid for a call that may change its values.
-    fn edit(&mut self) -> Pin<&mut ffi::LevelSet> {
+    pub(crate) fn edit(&mut self) -> Pin<&mut ffi::LevelSet> {
         self.stamp = fresh_stamp();
         self.inner.pin_mut()
     }
@@ -415,32 +415,6 @@ impl LevelSet {
     /// equal grids give equal hashes; used to check that a replay is bit-exact.
     pub fn content_hash(&self) -> u64 {
         self.inner.content_hash()
-    }
-
-    /// Benchmark peer: one C++ loop of OpenVDB's `BoxSampler` over world points (x, y, z, …).
-    pub fn peer_sample_sum(&self, xyz: &[f32]) -> f64 {
-        self.inner.peer_sample_sum(xyz)
-    }
-
-    /// Benchmark peer: `createLevelSetSphere` + `csgDifference`, the usual per-stroke cut.
-    pub fn peer_sphere_cut(&mut self, center: DVec3, radius: f64) -> Result<()> {
-        self.edit()
-            .peer_sphere_cut(center.to_array(), radius)
-            .map_err(openvdb("peer sphere cut"))
-    }
-
-    /// Benchmark peer for any tool shape: `meshToLevelSet` of the tool's closed mesh (world mm,
-    /// already at the stroke's pose) in this grid's frame and band, then `csgDifference`.
-    pub fn peer_mesh_cut(&mut self, tool: &TriMesh) -> Result<()> {
-        self.inner
-            .pin_mut()
-            .peer_mesh_cut(&tool.flat_points(), &tool.flat_triangles())
-            .map_err(openvdb("peer mesh cut"))
-    }
-
-    /// Benchmark peer: a full `volumeToMesh`; returns the triangle count.
-    pub fn peer_full_mesh(&self) -> u64 {
-        self.inner.peer_full_mesh()
     }
 }
 

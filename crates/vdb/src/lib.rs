@@ -7,6 +7,8 @@ mod error;
 mod file;
 mod level_set;
 mod mesh;
+#[cfg(feature = "peer")]
+mod peer;
 mod sys;
 
 pub use error::{Error, Result};

@@ -92,11 +92,6 @@ pub(crate) mod ffi {
         fn meta_f64(self: &LevelSet, key: &str) -> Result<f64>;
         fn meta_vec3(self: &LevelSet, key: &str) -> Result<[f32; 3]>;
 
-        fn peer_sample_sum(self: &LevelSet, xyz: &[f32]) -> f64;
-        fn peer_sphere_cut(self: Pin<&mut LevelSet>, center: [f64; 3], radius: f64) -> Result<()>;
-        fn peer_mesh_cut(self: Pin<&mut LevelSet>, points: &[f32], triangles: &[u32]) -> Result<()>;
-        fn peer_full_mesh(self: &LevelSet) -> u64;
-
         fn new_reader(grid: &LevelSet) -> UniquePtr<Reader>;
         fn value(self: Pin<&mut Reader>, x: f64, y: f64, z: f64) -> f32;
         fn value_gradient(self: Pin<&mut Reader>, x: f64, y: f64, z: f64) -> [f32; 4];

@@ -5,6 +5,7 @@
 mod iso;
 pub mod profile;
 
+use dentsim_vdb::{LevelSet, TriMesh};
 use glam::{DVec2, DVec3};
 use serde::{Deserialize, Serialize};
 
@@ -233,6 +234,20 @@ impl Burr {
     }
 
     /// Radius of a ball about the tool origin that holds the cutting head.
+    /// The head's surface in the tool frame, meshed from its SDF over the head's own box at a
+    /// twentieth of its diameter (a ball: a few thousand triangles; a long head more, as it
+    /// should), by the one mesher: what a display draws and a mesh-based peer cuts with.
+    pub fn head_surface(&self) -> Result<TriMesh> {
+        let head = self.head_profile();
+        let r = head.max_radius;
+        let h = (self.diameter_mm / 20.0).max(0.01);
+        let pad = DVec3::splat(4.0 * h);
+        let lo = DVec3::new(-r, -r, head.z_min) - pad;
+        let hi = DVec3::new(r, r, head.z_max) + pad;
+        let grid = LevelSet::from_sdf(h, 3.0, lo, hi, |p| self.sdf(p))?;
+        crate::tissues::surface(&grid)
+    }
+
     pub fn bounding_radius(&self) -> f64 {
         self.bounding_radius
     }

@@ -3,7 +3,7 @@
 //! Per tick: the swept head becomes a dense patch of signed distances ([`Sweep`]), and every
 //! tissue takes `max(value, -(tool + offset))` over it in place (`LevelSet::subtract_logged`),
 //! with offset 0 for geometric cuts and a partial depth when a removal rate limits the tick
-//! ([`crate::removal`]). The changed voxels' old values feed the undo journal ([`History`]); by
+//! ([`crate::cutting::removal`]). The changed voxels' old values feed the undo journal ([`History`]); by
 //! [`Handoff`], either the dirty-chunk set a mesher drains ([`DirtyLeaves`]) or each tissue's
 //! changed voxels with their new values, which a session hands to its mesher's copy of the grids. Once its buffers have grown to the
 //! largest stroke, [`Cutter::cut_with`] allocates nothing.
@@ -16,12 +16,12 @@ use glam::{DAffine3, DVec3, IVec3};
 use serde::Serialize;
 
 use crate::burr::Burr;
-use crate::dirty::DirtyLeaves;
+use crate::cutting::dirty::DirtyLeaves;
 use crate::error::Result;
-use crate::history::History;
-use crate::model::TissueModel;
-use crate::removal::{pick_offset, Feed, RemovalBank, MAX_BANKED_S, OFFSET_SAMPLES};
-use crate::sweep::{CutBall, CutHead, Done, Sweep};
+use crate::cutting::history::History;
+use crate::tissues::model::TissueModel;
+use crate::cutting::removal::{pick_offset, Feed, RemovalBank, MAX_BANKED_S, OFFSET_SAMPLES};
+use crate::cutting::sweep::{CutBall, CutHead, Done, Sweep};
 
 /// Volume each tissue lost to one stroke.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -85,7 +85,7 @@ pub struct Cutter {
     /// The head (a ball, or any head at its pose) the last stroke ended in and the grids' stamps
     /// it left (see the module notes).
     done: Option<Done>,
-    /// The done head the last stroke skipped (its cut depends on it, to [`crate::sweep`]'s slack).
+    /// The done head the last stroke skipped (its cut depends on it, to [`crate::cutting::sweep`]'s slack).
     skipped: Option<Done>,
     done_stamps: Vec<u64>,
     measure: Measure,

@@ -6,7 +6,7 @@ use std::collections::VecDeque;
 
 use dentsim_vdb::VoxelChange;
 
-use crate::model::TissueModel;
+use crate::tissues::model::TissueModel;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Entry {

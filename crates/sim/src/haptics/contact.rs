@@ -10,7 +10,7 @@ use glam::{DAffine3, DVec3};
 
 use crate::burr::Burr;
 use crate::error::{invalid, Result};
-use crate::model::TissueModel;
+use crate::tissues::model::TissueModel;
 
 /// Points on the burr head in the tool frame, with outward normals and the area each stands for.
 #[derive(Clone, Debug)]

@@ -6,7 +6,7 @@
 //! gets exactly k·d. The damping never pulls the tool into the tissue.
 use glam::DVec3;
 
-use crate::contact::{BurrSamples, ContactPoint};
+use crate::haptics::contact::{BurrSamples, ContactPoint};
 
 /// Per-tissue numbers the tick uses, indexed like the model's tissues.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

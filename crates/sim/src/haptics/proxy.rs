@@ -11,8 +11,8 @@
 //! proxy settles in the hollow it cuts instead of swinging across it.
 use glam::{DAffine3, DVec3};
 
-use crate::contact::{ContactPoint, ContactQuery};
-use crate::model::TissueModel;
+use crate::haptics::contact::{ContactPoint, ContactQuery};
+use crate::tissues::model::TissueModel;
 
 /// Sub-steps per tick at most; beyond that the proxy lags (800 mm/s at 0.05 mm steps ×16).
 pub const MAX_SUBSTEPS: usize = 16;

@@ -7,16 +7,16 @@ use glam::{DAffine3, DVec3};
 use serde::{Deserialize, Serialize};
 
 use crate::burr::Burr;
-use crate::contact::{BurrSamples, ContactQuery};
-use crate::cut::{Cutter, Handoff};
-use crate::sweep::Done;
-use crate::removal::Feed;
+use crate::haptics::contact::{BurrSamples, ContactQuery};
+use crate::cutting::cutter::{Cutter, Handoff};
+use crate::cutting::sweep::Done;
+use crate::cutting::removal::Feed;
 use crate::error::{invalid, Result};
-use crate::filter::{clamp_length, FilterSpec, ForceFilter};
-use crate::force::{contact_force, ContactForce, Mechanics, MAX_TISSUES};
-use crate::model::TissueModel;
-use crate::proxy::Proxy;
-use crate::watchdog::{Watchdog, WatchdogParams};
+use crate::haptics::filter::{clamp_length, FilterSpec, ForceFilter};
+use crate::haptics::force::{contact_force, ContactForce, Mechanics, MAX_TISSUES};
+use crate::tissues::model::TissueModel;
+use crate::haptics::proxy::Proxy;
+use crate::haptics::watchdog::{Watchdog, WatchdogParams};
 
 /// How deep (mm) the proxy may rest in tissue in cut mode (see [`Proxy::follow_cut`]): rounding
 /// only. The proxy sits in its own cut because the contact query counts the burr at the end of the
@@ -76,7 +76,7 @@ impl Default for HapticParams {
             period_s: dentsim_devices::HAPTIC_PERIOD_S,
             max_step_mm: 0.05,
             axis_point_mm: 19.0,
-            reference_rpm: crate::removal::REFERENCE_RPM,
+            reference_rpm: crate::cutting::removal::REFERENCE_RPM,
             cut_interval_ticks: 1,
             watchdog: WatchdogParams::default(),
         }

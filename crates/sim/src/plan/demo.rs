@@ -10,12 +10,12 @@ use serde::Serialize;
 
 use crate::burr::Burr;
 use crate::error::{invalid, Result};
-use crate::export::SUMMARY_NAME;
-use crate::model::{TissueModel, TissueVolumes};
-use crate::path::{PathLimits, PathSample, ToolPath};
-use crate::prepare::{prepare, PrepareOptions, PrepareReport};
-use crate::scan::{ScanReport, ScanToTissues};
-use crate::tissue::TissueTable;
+use crate::tissues::export::SUMMARY_NAME;
+use crate::tissues::model::{TissueModel, TissueVolumes};
+use crate::plan::path::{PathLimits, PathSample, ToolPath};
+use crate::plan::prepare::{prepare, PrepareOptions, PrepareReport};
+use crate::tissues::from_scan::{ScanReport, TissuesFromScan};
+use crate::tissues::table::TissueTable;
 
 const FDI: u8 = 36;
 /// Cavity floor below the fossa, mm: through the enamel, into the dentin, clear of the pulp.
@@ -50,7 +50,7 @@ pub fn run(voxel_size_mm: f64, table: &TissueTable, progress: &mut dyn FnMut(&st
     progress("making the phantom scan", 0.0);
     let phantom = Phantom::new(&PhantomSpec::default());
     let scan = phantom.scan();
-    let request = ScanToTissues { voxel_size_mm, fdi: FDI, seed_mm: phantom.tooth_seed(FDI), ..Default::default() };
+    let request = TissuesFromScan { voxel_size_mm, fdi: FDI, seed_mm: phantom.tooth_seed(FDI), ..Default::default() };
     let (mut model, segmentation) = request.run(&scan, table, &mut |step, f| progress(step, 0.1 + 0.5 * f))?;
     let before = model.volumes();
 
@@ -134,7 +134,7 @@ fn path(points: &[DVec3]) -> Result<ToolPath> {
 
 /// Where `dentsim demo` puts its files.
 pub fn write(model: &mut TissueModel, summary: &mut DemoSummary, out: &Path, progress: &mut dyn FnMut(&str, f64)) -> Result<()> {
-    summary.triangles = crate::export::write_model(model, out, progress)?;
+    summary.triangles = crate::tissues::export::write_model(model, out, progress)?;
     let json = serde_json::to_vec_pretty(summary).map_err(|e| invalid(SUMMARY_NAME, e.to_string()))?;
     Ok(dentsim_atomic::write(&out.join(SUMMARY_NAME), |w| w.write_all(&json))?)
 }

@@ -4,11 +4,11 @@ use glam::{DAffine3, DVec3};
 use serde::{Deserialize, Serialize};
 
 use crate::burr::Burr;
-use crate::cut::Cutter;
+use crate::cutting::cutter::Cutter;
 use crate::error::{invalid, Result};
-use crate::model::{TissueModel, TissueVolumes};
-use crate::phantom::CapsuleTooth;
-use crate::tissue::TissueTable;
+use crate::tissues::model::{TissueModel, TissueVolumes};
+use crate::tissues::capsule::CapsuleTooth;
+use crate::tissues::table::TissueTable;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PhantomStroke {
@@ -23,7 +23,7 @@ impl Default for PhantomStroke {
     /// A groove opening at the occlusal surface and deepening through the enamel into dentin.
     fn default() -> Self {
         PhantomStroke {
-            voxel_size_mm: crate::model::DEFAULT_VOXEL_MM,
+            voxel_size_mm: crate::tissues::model::DEFAULT_VOXEL_MM,
             burr_diameter_mm: crate::burr::DEFAULT_ROUND_DIAMETER_MM,
             start_mm: [-2.0, 0.0, 4.2], end_mm: [1.0, 0.0, 2.9] }
     }
@@ -36,7 +36,7 @@ pub struct Outcome {
 
 impl PhantomStroke {
     pub fn validate(&self) -> Result<()> {
-        crate::phantom::check_voxel_mm("voxel size", self.voxel_size_mm)?;
+        crate::tissues::capsule::check_voxel_mm("voxel size", self.voxel_size_mm)?;
         Burr::round(self.burr_diameter_mm)?;
         for (which, p) in [("stroke start", self.start_mm), ("stroke end", self.end_mm)] {
             if p.iter().any(|v| !v.is_finite() || v.abs() > 100.0) {

@@ -7,12 +7,12 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use crate::burr::Burr;
-use crate::cut::Cutter;
+use crate::cutting::cutter::Cutter;
 use crate::error::Result;
-use crate::export::PREPARE_SUMMARY_NAME;
-use crate::model::{TissueModel, TissueVolumes};
-use crate::path::{PathLimits, ToolPath};
-use crate::removal::Feed;
+use crate::tissues::export::PREPARE_SUMMARY_NAME;
+use crate::tissues::model::{TissueModel, TissueVolumes};
+use crate::plan::path::{PathLimits, ToolPath};
+use crate::cutting::removal::Feed;
 
 /// How to cut along the path.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -25,7 +25,7 @@ pub struct PrepareOptions {
 
 impl Default for PrepareOptions {
     fn default() -> Self {
-        PrepareOptions { force_n: None, default_rpm: crate::removal::REFERENCE_RPM }
+        PrepareOptions { force_n: None, default_rpm: crate::cutting::removal::REFERENCE_RPM }
     }
 }
 
@@ -144,7 +144,7 @@ pub fn prepare_to_dir(
     path: &std::path::Path,
     burr_spec: &str,
     options: &PrepareOptions,
-    table: &crate::tissue::TissueTable,
+    table: &crate::tissues::table::TissueTable,
     out: &std::path::Path,
     progress: &mut dyn FnMut(&str, f64),
 ) -> Result<PrepareSummary> {
@@ -158,7 +158,7 @@ pub fn prepare_to_dir(
     progress("cutting", 0.0);
     let report = prepare_with_progress(&mut model, &tool_path, &burr, options, &mut |f| progress("cutting", 0.8 * f))?;
     std::fs::create_dir_all(out).map_err(|e| crate::Error::File { path: out.to_owned(), message: e.to_string() })?;
-    let triangles = crate::export::write_model(&mut model, out, &mut |step, f| progress(step, 0.8 + 0.2 * f))?;
+    let triangles = crate::tissues::export::write_model(&mut model, out, &mut |step, f| progress(step, 0.8 + 0.2 * f))?;
     let tissue_figures = TissueVolumes::of(&model, &before, |name| report.removed_mm3.get(name).copied().unwrap_or(0.0))
         .into_iter()
         .zip(triangles)
@@ -182,7 +182,7 @@ pub enum PathSource<'a> {
     /// A CSV file in the `t,x,y,z,qw,qx,qy,qz[,rpm][,cut]` format.
     Csv(&'a std::path::Path),
     /// A polyline's points and arrays (ParaView).
-    Polyline(crate::path::PolylineArrays<'a>),
+    Polyline(crate::plan::path::PolylineArrays<'a>),
 }
 
 /// A whole preparation as the ParaView "Dental Preparation" filter asks for it: tissues from a
@@ -209,7 +209,7 @@ pub struct Prepared {
 impl PreparationRequest<'_> {
     /// Checks every input before any work (bad burr, path or force → an error naming it), then
     /// loads or builds the tissues and cuts the path. Cost: one swept cut per path segment.
-    pub fn run(&self, table: &crate::tissue::TissueTable) -> Result<Prepared> {
+    pub fn run(&self, table: &crate::tissues::table::TissueTable) -> Result<Prepared> {
         use crate::error::invalid;
         if !(self.force_n.is_finite() && self.force_n >= 0.0) {
             return Err(invalid("force", format!("{} N, expected 0 (geometric) or a positive force", self.force_n)));
@@ -223,8 +223,8 @@ impl PreparationRequest<'_> {
         let mut model = match self.tissues {
             Some(p) => TissueModel::load(p, table)?,
             None => {
-                crate::phantom::check_voxel_mm("phantom voxel size", self.phantom_voxel_mm)?;
-                crate::phantom::CapsuleTooth::default().build(self.phantom_voxel_mm, table)?
+                crate::tissues::capsule::check_voxel_mm("phantom voxel size", self.phantom_voxel_mm)?;
+                crate::tissues::capsule::CapsuleTooth::default().build(self.phantom_voxel_mm, table)?
             }
         };
         let before = model.volumes();

@@ -9,19 +9,19 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use dentsim_devices::{DeviceProfile, DeviceSpec};
-use dentsim_vdb::{LevelSet, TriMesh};
+use dentsim_vdb::TriMesh;
 use glam::{DAffine3, DVec3};
 
 use crate::burr::Burr;
 use crate::error::{invalid, Result};
-use crate::filter::FilterSpec;
-use crate::haptics::{HapticParams, DEFAULT_BURR};
-use crate::log::TickRecord;
-use crate::mesher::{surface, SurfaceFrame};
-use crate::model::TissueModel;
-use crate::phantom::CapsuleTooth;
-use crate::session::{Session, SessionOptions};
-use crate::tissue::{TissueProps, TissueTable};
+use crate::haptics::filter::FilterSpec;
+use crate::haptics::tick::{HapticParams, DEFAULT_BURR};
+use crate::session::log::TickRecord;
+use crate::tissues::surface::{surface, SurfaceFrame};
+use crate::tissues::model::TissueModel;
+use crate::tissues::capsule::CapsuleTooth;
+use crate::session::threads::{Session, SessionOptions};
+use crate::tissues::table::{TissueProps, TissueTable};
 
 /// What to start.
 #[derive(Clone, Debug)]
@@ -85,7 +85,7 @@ impl LiveSession {
     /// [`Burr::parse`]).
     pub fn start_with_burr(req: &LiveRequest, burr: &str) -> Result<Self> {
         // The burr first: a bad spec is reported before any tissue is built.
-        let burr_mesh = burr_mesh(&Burr::parse(burr)?)?;
+        let burr_mesh = Burr::parse(burr)?.head_surface()?;
         let profile = DeviceProfile::named(&req.profile).map_err(|e| invalid("profile", e.to_string()))?;
         let filter = FilterSpec::named(&req.filter).map_err(|m| invalid("filter", m))?;
         let spec = DeviceSpec::parse(&req.device).map_err(|e| invalid("device", e.to_string()))?;
@@ -93,7 +93,7 @@ impl LiveSession {
         let model = match &req.tissues {
             Some(path) => TissueModel::load(path, &table)?,
             None => {
-                crate::phantom::check_voxel_mm("phantom voxel size", req.phantom_voxel_mm)?;
+                crate::tissues::capsule::check_voxel_mm("phantom voxel size", req.phantom_voxel_mm)?;
                 CapsuleTooth::default().build(req.phantom_voxel_mm, &table)?
             }
         };
@@ -200,15 +200,4 @@ impl LiveSession {
             triangles: m.triangles.clone(),
         }
     }
-}
-
-/// The burr head's surface in the tool frame, meshed from its SDF over the head's own box, at a
-/// twentieth of its diameter (a ball: a few thousand triangles; a long head more, as it should).
-pub(crate) fn burr_mesh(burr: &Burr) -> Result<TriMesh> {
-    let head = burr.head_profile();
-    let r = head.max_radius;
-    let h = (burr.diameter_mm / 20.0).max(0.01);
-    let pad = DVec3::splat(4.0 * h);
-    let grid = LevelSet::from_sdf(h, 3.0, DVec3::new(-r, -r, head.z_min) - pad, DVec3::new(r, r, head.z_max) + pad, |p| burr.sdf(p))?;
-    surface(&grid)
 }

@@ -11,7 +11,7 @@ use glam::{DAffine3, DMat3, DVec3};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{Error, Result};
-use crate::haptics::HapticParams;
+use crate::haptics::tick::HapticParams;
 
 pub const MAGIC: [u8; 8] = *b"DSIMLOG\0";
 /// 2: records carry the tick's changed voxels, no longer its removed volume (live ticks do not

@@ -11,15 +11,15 @@ use dentsim_devices::{DeviceProfile, DeviceSpec};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{invalid, Error, Result};
-use crate::export::{write_model, FORCES_CSV_NAME, FORCES_PNG_NAME, LOG_NAME, REPLAY_SUMMARY_NAME, SUMMARY_NAME};
-use crate::filter::FilterSpec;
-use crate::haptics::HapticParams;
-use crate::log::SessionLog;
-use crate::model::{TissueModel, TissueVolumes};
-use crate::plot::plot_forces;
-use crate::replay::{replay_with_progress, write_force_csv};
-use crate::session::{Session, SessionOptions};
-use crate::tissue::TissueTable;
+use crate::tissues::export::{write_model, FORCES_CSV_NAME, FORCES_PNG_NAME, LOG_NAME, REPLAY_SUMMARY_NAME, SUMMARY_NAME};
+use crate::haptics::filter::FilterSpec;
+use crate::haptics::tick::HapticParams;
+use crate::session::log::SessionLog;
+use crate::tissues::model::{TissueModel, TissueVolumes};
+use crate::session::plot::plot_forces;
+use crate::session::replay::{replay_with_progress, write_force_csv};
+use crate::session::threads::{Session, SessionOptions};
+use crate::tissues::table::TissueTable;
 
 /// What to run.
 #[derive(Clone, Debug)]

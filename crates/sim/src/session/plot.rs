@@ -6,7 +6,7 @@ use std::path::Path;
 use plotters::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::replay::ForceSample;
+use crate::session::replay::ForceSample;
 
 /// Writes `path` (PNG, `width`×`height`). `colours[i]` is tissue i's RGB in 0..1.
 pub fn plot_forces(path: &Path, forces: &[ForceSample], colours: &[[f32; 3]], width: u32, height: u32) -> Result<()> {

@@ -7,9 +7,9 @@ use dentsim_devices::DeviceState;
 use glam::DVec3;
 
 use crate::error::{invalid, Result};
-use crate::haptics::HapticCore;
-use crate::log::{SessionLog, FLAG_MISSED};
-use crate::model::TissueModel;
+use crate::haptics::tick::HapticCore;
+use crate::session::log::{SessionLog, FLAG_MISSED};
+use crate::tissues::model::TissueModel;
 
 /// The rendered force at one tick, as logged.
 #[derive(Clone, Copy, Debug, PartialEq)]

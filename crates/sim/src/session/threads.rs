@@ -28,15 +28,15 @@ use dentsim_vdb::{Measure, TriMesh, VoxelChange};
 use glam::{DAffine3, DVec3};
 
 use crate::burr::Burr;
-use crate::cut::{Cutter, Handoff};
-use crate::dirty::DirtyLeaves;
-use crate::force::MAX_TISSUES;
+use crate::cutting::cutter::{Cutter, Handoff};
+use crate::cutting::dirty::DirtyLeaves;
+use crate::haptics::force::MAX_TISSUES;
 use crate::error::{invalid, Error, Result};
-use crate::haptics::{HapticCore, HapticParams};
-use crate::log::{write_header, write_record, LogHeader, TickRecord, FLAG_CUT, FLAG_DEVICE_FAULT, FLAG_MISSED};
-use crate::mesher::{Mesher, SurfaceFrame};
-use crate::model::TissueModel;
-use crate::sweep::Done;
+use crate::haptics::tick::{HapticCore, HapticParams};
+use crate::session::log::{write_header, write_record, LogHeader, TickRecord, FLAG_CUT, FLAG_DEVICE_FAULT, FLAG_MISSED};
+use crate::tissues::surface::{Mesher, SurfaceFrame};
+use crate::tissues::model::TissueModel;
+use crate::cutting::sweep::Done;
 
 /// How a session runs.
 #[derive(Clone, Debug)]
@@ -600,7 +600,7 @@ fn mesher_loop(
                 if std::mem::take(d) {
                     let frame = Arc::new(match &chunks {
                         Some(m) => m.frame(i),
-                        None => crate::mesher::surface(&copy.tissues[i].grid).unwrap_or_default().into(),
+                        None => crate::tissues::surface::surface(&copy.tissues[i].grid).unwrap_or_default().into(),
                     });
                     shared.frames.lock().unwrap_or_else(|p| p.into_inner())[i] = Some(frame);
                 }

@@ -6,8 +6,8 @@ use dentsim_vdb::LevelSet;
 use glam::DVec3;
 
 use crate::error::{invalid, Result};
-use crate::model::TissueModel;
-use crate::tissue::TissueTable;
+use crate::tissues::model::TissueModel;
+use crate::tissues::table::TissueTable;
 
 /// Voxel sizes (mm) the capsule phantom is built at: finer takes minutes, coarser loses the
 /// enamel layer.

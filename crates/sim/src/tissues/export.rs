@@ -6,8 +6,8 @@ use std::path::Path;
 use dentsim_vdb::TriMesh;
 
 use crate::error::Result;
-use crate::model::TissueModel;
-use crate::tissue::TissueProps;
+use crate::tissues::model::TissueModel;
+use crate::tissues::table::TissueProps;
 
 /// The files dentsim writes into an output folder (README lists them), one home for each name.
 pub const TISSUES_NAME: &str = "tissues.vdb";
@@ -27,7 +27,7 @@ pub fn write_model(model: &mut TissueModel, out: &Path, progress: &mut dyn FnMut
     let n = model.tissues.len();
     for (i, t) in model.tissues.iter().enumerate() {
         progress(&format!("meshing {}", t.props.name), i as f64 / n as f64);
-        let mesh = crate::mesher::surface(&t.grid)?;
+        let mesh = crate::tissues::surface::surface(&t.grid)?;
         write_vtp(&out.join(format!("{}.vtp", t.props.name)), &mesh, &t.props)?;
         write_stl(&out.join(format!("{}.stl", t.props.name)), &mesh)?;
         triangles.push((t.props.name.clone(), mesh.triangles.len()));

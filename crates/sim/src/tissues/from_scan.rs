@@ -12,11 +12,11 @@ use dentsim_vdb::{DenseVolume, LevelSet};
 use serde::Serialize;
 
 use crate::error::{invalid, Error, Result};
-use crate::model::TissueModel;
-use crate::tissue::TissueTable;
+use crate::tissues::model::TissueModel;
+use crate::tissues::table::TissueTable;
 
 #[derive(Clone, Debug)]
-pub struct ScanToTissues {
+pub struct TissuesFromScan {
     /// Voxel size of the level sets, mm.
     pub voxel_size_mm: f64,
     /// FDI (ISO 3950) number of the tooth to keep.
@@ -31,14 +31,14 @@ pub struct ScanToTissues {
     pub margin_mm: f64,
 }
 
-impl Default for ScanToTissues {
+impl Default for TissuesFromScan {
     fn default() -> Self {
-        ScanToTissues { voxel_size_mm: crate::model::DEFAULT_VOXEL_MM, fdi: 36, seed_mm: None, bounds_mm: None, thresholds: None, margin_mm: 1.0 }
+        TissuesFromScan { voxel_size_mm: crate::tissues::model::DEFAULT_VOXEL_MM, fdi: 36, seed_mm: None, bounds_mm: None, thresholds: None, margin_mm: 1.0 }
     }
 }
 
 /// One tissue as segmentation made it: one measured volume and how it was reached (not a
-/// before/after record: that is [`crate::model::TissueVolumes`]).
+/// before/after record: that is [`crate::tissues::model::TissueVolumes`]).
 #[derive(Clone, Debug, Serialize)]
 pub struct SegmentedTissue {
     pub name: String,
@@ -76,7 +76,7 @@ pub struct Timings {
     pub level_sets: f64,
 }
 
-impl ScanToTissues {
+impl TissuesFromScan {
     pub fn validate(&self) -> Result<()> {
         if !(self.voxel_size_mm.is_finite() && (0.01..=1.0).contains(&self.voxel_size_mm)) {
             return Err(invalid("voxel size", format!("{} mm, expected 0.01 to 1 mm", self.voxel_size_mm)));
@@ -235,7 +235,7 @@ impl NestedBuilder<'_> {
         let Some(measure) = enclosed_volume(self.scan, self.labels, label, Label::Dentin, self.calibration) else {
             return Ok(None);
         };
-        let area = crate::mesher::surface(&grid)?.area();
+        let area = crate::tissues::surface::surface(&grid)?.area();
         if !area.is_finite() || area <= 0.0 {
             return Ok(None);
         }

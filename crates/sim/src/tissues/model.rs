@@ -6,7 +6,7 @@ use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
 use crate::error::{invalid, Error, Result};
-use crate::tissue::{TissueProps, TissueTable};
+use crate::tissues::table::{TissueProps, TissueTable};
 
 #[derive(Clone)]
 pub struct Tissue {

@@ -19,9 +19,9 @@ use std::sync::Arc;
 use dentsim_vdb::{LevelSet, TriMesh, LEAF_DIM};
 use glam::{IVec3, Vec3};
 
-use crate::dirty::LeafHasher;
+use crate::cutting::dirty::LeafHasher;
 use crate::error::Result;
-use crate::model::TissueModel;
+use crate::tissues::model::TissueModel;
 
 const N: usize = LEAF_DIM as usize + 2;
 

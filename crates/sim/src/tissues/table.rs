@@ -43,7 +43,7 @@ struct TissueOverride {
     removal_rate_mm3_per_n_s: Option<f64>,
 }
 
-const DEFAULTS: &str = include_str!("../tissues.toml");
+const DEFAULTS: &str = include_str!("../../tissues.toml");
 
 impl Default for TissueTable {
     fn default() -> Self {

@@ -2,9 +2,9 @@
 //! driver, mesh comparison.
 #![allow(dead_code)]
 use dentsim_devices::DeviceState;
-use dentsim_sim::haptics::{HapticCore, TickOutput};
-use dentsim_sim::model::TissueModel;
-use dentsim_sim::tissue::TissueTable;
+use dentsim_sim::haptics::tick::{HapticCore, TickOutput};
+use dentsim_sim::tissues::model::TissueModel;
+use dentsim_sim::tissues::table::TissueTable;
 use dentsim_vdb::{LevelSet, TriMesh};
 use glam::{DAffine3, DVec3};
 

@@ -1,11 +1,11 @@
 //! Criterion timings of one haptic tick's cut and of the re-mesh after it (no peer here; the
-//! peer comparison lives in `dentsim bench`, see `dentsim_sim::bench`).
+//! peer comparison lives in `dentsim bench`, see `dentsim_bench`).
 use criterion::{criterion_group, criterion_main, Criterion};
-use dentsim_sim::bench::{bench_stroke_tip, bench_tooth};
+use dentsim_bench::{bench_stroke_tip, bench_tooth};
 use dentsim_sim::burr::Burr;
-use dentsim_sim::cut::Cutter;
-use dentsim_sim::mesher::Mesher;
-use dentsim_sim::removal::Feed;
+use dentsim_sim::cutting::cutter::Cutter;
+use dentsim_sim::tissues::surface::Mesher;
+use dentsim_sim::cutting::removal::Feed;
 
 
 
