@@ -1,13 +1,13 @@
 //! The dentsim core over OpenVDB level sets; knows nothing of C++. Its rooms, each a folder whose
-//! `mod.rs` names what it offers (and may touch only the rooms listed before it):
+//! `mod.rs` names what it offers, from the ground up (a room touches only rooms below it):
 //!
 //! - [`tissues`]: the tissue table, the model (one level set per tissue), the capsule phantom,
 //!   tissues from a scan, surfaces (the one mesher), exports.
 //! - [`burr`]: ISO 6360 heads as exact signed distance functions, specs, the catalogue.
 //! - [`cutting`]: the swept burr, the cut, removal rates, dirty chunks, undo.
 //! - [`haptics`]: contact, proxy, force, filters, watchdog, the 1 kHz tick.
-//! - [`session`]: the threads, log, live display, replay, outputs, force plot.
 //! - [`plan`]: tool paths into preparations, the phantom stroke, the demo.
+//! - [`session`]: the threads, log, live display, replay, outputs in a folder, force plot.
 //!
 //! The types most callers need are re-exported here.
 pub mod burr;
