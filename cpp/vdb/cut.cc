@@ -250,6 +250,29 @@ rust::Slice<const VoxelChange> LevelSet::last_changes() const {
   return {impl->scratch_log.data(), impl->log_count};
 }
 
+void LevelSet::mark_material_blocks(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
+                                    rust::Slice<uint8_t> out) const {
+  constexpr int L = int(FloatTree::LeafNodeType::DIM);
+  auto floor_to_leaf = [](int v) { return v & ~(L - 1); };
+  int first[3], count[3];
+  for (int a = 0; a < 3; ++a) {
+    first[a] = floor_to_leaf(index_min[a]);
+    count[a] = (index_min[a] + int(dims[a]) - 1 - first[a]) / L + 1;
+  }
+  if (out.size() < size_t(count[0]) * count[1] * count[2])
+    throw std::invalid_argument("material block mask is smaller than the box's blocks");
+  const float bg = impl->grid->background();
+  openvdb::tree::ValueAccessor<const FloatTree, false> acc(impl->grid->tree());
+  size_t b = 0;
+  for (int bz = 0; bz < count[2]; ++bz)
+    for (int by = 0; by < count[1]; ++by)
+      for (int bx = 0; bx < count[0]; ++bx, ++b) {
+        const Coord origin(first[0] + bx * L, first[1] + by * L, first[2] + bz * L);
+        // As the cut reads it: an outside tile cannot change.
+        if (acc.probeConstLeaf(origin) || acc.getValue(origin) < bg) out[b] = 1;
+      }
+}
+
 void LevelSet::last_new_values(rust::Slice<VoxelChange> out) const {
   // Pass 1 keeps each changed voxel's new value beside its log entry, in the same order.
   const size_t n = std::min(out.size(), impl->log_count);

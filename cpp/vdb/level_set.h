@@ -88,6 +88,10 @@ public:
   void last_new_values(rust::Slice<VoxelChange> out) const;
   // Grows the cut's working buffers for patches up to dims, so those cuts allocate nothing.
   void reserve_cut(std::array<uint32_t, 3> dims);
+  // Sets out[b] = 1 for each leaf-aligned 8^3 block b overlapping the box (x fastest, from the
+  // block holding index_min) that holds a leaf or an inside tile: material a cut could change.
+  void mark_material_blocks(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
+                            rust::Slice<uint8_t> out) const;
   void removal_by_offset(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
                          rust::Slice<const float> tool, rust::Slice<const float> offsets,
                          rust::Slice<double> removed) const;

@@ -24,6 +24,15 @@ fn fresh_stamp() -> u64 {
     NEXT_STAMP.fetch_add(1, Ordering::Relaxed)
 }
 
+/// How many leaf-aligned 8³ blocks an index box overlaps along each axis, and the first block's
+/// origin (see [`LevelSet::mark_material_blocks`]).
+pub fn block_counts(index_min: IVec3, dims: [u32; 3]) -> (IVec3, [usize; 3]) {
+    let first = index_min & IVec3::splat(!(LEAF_DIM - 1));
+    let last = index_min + IVec3::from_array(dims.map(|d| d as i32)) - IVec3::ONE;
+    let count = ((last - first) / LEAF_DIM + IVec3::ONE).max(IVec3::ONE);
+    (first, count.to_array().map(|c| c as usize))
+}
+
 /// An inclusive box of voxel indices.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct IndexBox {
@@ -306,6 +315,13 @@ impl LevelSet {
         let start = out.len();
         out.extend_from_slice(self.inner.last_changes());
         self.inner.last_new_values(&mut out[start..]);
+    }
+
+    /// Marks (sets to 1) in `out` each leaf-aligned 8³ block overlapping the index box that holds
+    /// a leaf or an inside tile: where a cut could change anything (an outside tile cannot).
+    /// Blocks are counted from the one holding `index_min`, x fastest ([`block_counts`]).
+    pub fn mark_material_blocks(&self, index_min: IVec3, dims: [u32; 3], out: &mut [u8]) -> Result<()> {
+        self.inner.mark_material_blocks(index_min.to_array(), dims, out).map_err(openvdb("mark material blocks"))
     }
 
     /// Grows the cut's working buffers for patches of up to `dims` voxels, so such cuts allocate

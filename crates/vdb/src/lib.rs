@@ -13,7 +13,7 @@ mod sys;
 
 pub use error::{Error, Result};
 pub use file::{read_file, write_file, FileGrid};
-pub use level_set::{CutStats, DensePatch, DenseVolume, IndexBox, LevelSet, Measure, MetaValue, Reader, VoxelChange};
+pub use level_set::{block_counts, CutStats, DensePatch, DenseVolume, IndexBox, LevelSet, Measure, MetaValue, Reader, VoxelChange};
 pub use mesh::TriMesh;
 
 /// Voxels per edge of an OpenVDB leaf node (the tree's `LeafNode<float, 3>`).

@@ -109,6 +109,7 @@ pub(crate) mod ffi {
         fn last_changes(self: &LevelSet) -> &[VoxelChange];
         fn last_new_values(self: &LevelSet, out: &mut [VoxelChange]);
         fn reserve_cut(self: Pin<&mut LevelSet>, dims: [u32; 3]);
+        fn mark_material_blocks(self: &LevelSet, index_min: [i32; 3], dims: [u32; 3], out: &mut [u8]) -> Result<()>;
         fn removal_by_offset(
             self: &LevelSet,
             index_min: [i32; 3],

@@ -173,7 +173,11 @@ impl Cutter {
         let Some(h) = model.voxel_size() else { return Ok(&self.report) };
         let band = model.tissues.iter().map(|t| f64::from(t.grid.background())).fold(0.0, f64::max);
         self.skipped = done;
-        self.sweep.build_skipping(burr, from, to, h, band, done)?;
+        // Only blocks where some grid has material can change (an outside tile cannot).
+        let grids = &model.tissues;
+        self.sweep.build_in(burr, from, to, h, band, done, |lo, dims, blocks| {
+            grids.iter().try_for_each(|t| t.grid.mark_material_blocks(lo, dims, blocks).map_err(Into::into))
+        })?;
         self.report.substeps = self.sweep.substeps;
         let auto_stroke = !self.history.is_open();
         self.history.begin_stroke();

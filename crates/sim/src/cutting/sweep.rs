@@ -11,7 +11,7 @@
 //! Voxels whose lower bound lies beyond `band + 1.5 voxel` get that cut-off value without an exact
 //! evaluation; every value is therefore either exact (to the bound above) or ≥ the cut-off, which
 //! keeps the patch valid for `LevelSet::subtract_logged` (it reads one voxel past the band).
-use dentsim_vdb::DensePatch;
+use dentsim_vdb::{block_counts, DensePatch, LEAF_DIM};
 use glam::{DAffine3, DMat3, DQuat, DVec3, IVec3};
 
 use crate::burr::Burr;
@@ -65,6 +65,10 @@ pub struct Sweep {
     /// Index box of the patch (inclusive).
     pub lo: IVec3,
     pub hi: IVec3,
+    /// Which leaf-aligned 8³ blocks of the box hold material (see [`Sweep::build_in`]), and per
+    /// row of blocks the x range (voxel index, inclusive) from the first such block to the last.
+    material: Vec<u8>,
+    material_rows: Vec<(i32, i32)>,
 }
 
 /// Rotation part as a unit quaternion, or an error naming the pose when it is not a rotation.
@@ -91,6 +95,9 @@ impl Sweep {
         let p = &mut self.patch;
         p.values.reserve(total.saturating_sub(p.values.len()));
         p.spans.reserve((2 * side as usize * side as usize).saturating_sub(p.spans.len()));
+        let blocks = (side as usize / LEAF_DIM as usize + 2).pow(3);
+        self.material.reserve(blocks.saturating_sub(self.material.len()));
+        self.material_rows.reserve(blocks.saturating_sub(self.material_rows.len()));
         [side; 3]
     }
 
@@ -104,6 +111,28 @@ impl Sweep {
     /// removed. A head done at the stroke's start pose costs nothing extra: its distance is the
     /// first sub-pose's, which the sweep evaluates anyway.
     pub fn build_skipping(&mut self, burr: &Burr, from: DAffine3, to: DAffine3, voxel: f64, band: f64, done: Option<Done>) -> Result<()> {
+        self.build_in(burr, from, to, voxel, band, done, |_, _, blocks| {
+            blocks.fill(1);
+            Ok(())
+        })
+    }
+
+    /// [`build_skipping`](Self::build_skipping) where only blocks that `mark_material(box min,
+    /// box dims, blocks)` sets to 1 can change (blocks as [`block_counts`] counts them): the
+    /// others take the cut-off without an evaluation. A cut changes nothing in a block where every
+    /// grid is an outside tile, so marking the blocks with material in any grid leaves the cut
+    /// exact, and a head mostly in the air costs what its part in the tissue costs.
+    #[allow(clippy::too_many_arguments)]
+    pub fn build_in(
+        &mut self,
+        burr: &Burr,
+        from: DAffine3,
+        to: DAffine3,
+        voxel: f64,
+        band: f64,
+        done: Option<Done>,
+        mut mark_material: impl FnMut(IVec3, [u32; 3], &mut [u8]) -> Result<()>,
+    ) -> Result<()> {
         let q0 = rotation_of(&from, "stroke start pose")?;
         let q1 = rotation_of(&to, "stroke end pose")?;
         let (t0, t1) = (from.translation, to.translation);
@@ -153,6 +182,18 @@ impl Sweep {
         patch.values.resize(total, cutoff as f32);
         patch.spans.clear();
         patch.spans.resize(2 * dims.y as usize * dims.z as usize, 0);
+        let (first_block, blocks) = block_counts(lo, patch.dims);
+        self.material.clear();
+        self.material.resize(blocks.iter().product(), 0);
+        mark_material(lo, patch.dims, &mut self.material)?;
+        self.material_rows.clear();
+        for row in self.material.chunks_exact(blocks[0]) {
+            let range = match (row.iter().position(|m| *m != 0), row.iter().rposition(|m| *m != 0)) {
+                (Some(a), Some(b)) => (first_block.x + a as i32 * LEAF_DIM, first_block.x + b as i32 * LEAF_DIM + LEAF_DIM - 1),
+                _ => (1, 0),
+            };
+            self.material_rows.push(range);
+        }
         let ball = burr.ball_radius();
         let (done_head, done) = match done {
             Some(Done::Head(h)) => (Some(h), None),
@@ -212,8 +253,10 @@ impl Sweep {
                         continue;
                     }
                 }
-                let i_lo = ((x_lo / voxel).floor() as i32).max(lo.x);
-                let i_hi = ((x_hi / voxel).ceil() as i32).min(hi.x);
+                let block_row = ((j - first_block.y) / LEAF_DIM) as usize + blocks[1] * ((k - first_block.z) / LEAF_DIM) as usize;
+                let (m_lo, m_hi) = self.material_rows[block_row];
+                let i_lo = ((x_lo / voxel).floor() as i32).max(lo.x).max(m_lo);
+                let i_hi = ((x_hi / voxel).ceil() as i32).min(hi.x).min(m_hi);
                 if i_lo > i_hi {
                     continue;
                 }
