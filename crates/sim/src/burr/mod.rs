@@ -233,7 +233,6 @@ impl Burr {
         }
     }
 
-    /// Radius of a ball about the tool origin that holds the cutting head.
     /// The head's surface in the tool frame, meshed from its SDF over the head's own box at a
     /// twentieth of its diameter (a ball: a few thousand triangles; a long head more, as it
     /// should), by the one mesher: what a display draws and a mesh-based peer cuts with.
@@ -248,8 +247,19 @@ impl Burr {
         crate::tissues::surface(&grid)
     }
 
+    /// Radius of a ball about the tool origin that holds the cutting head.
     pub fn bounding_radius(&self) -> f64 {
         self.bounding_radius
+    }
+
+    /// The head's extent along its axis and its widest radius (mm, tool frame): it lies within
+    /// the capsule of that radius about the axis from `z_min` to `z_max`, for long heads a far
+    /// tighter bound than the ball of [`bound`](Self::bound).
+    pub fn axis_extent(&self) -> (f64, f64, f64) {
+        match &self.head {
+            Head::Ball { radius } => (*radius, *radius, *radius),
+            Head::Revolved(p) => (p.z_min, p.z_max, p.max_radius),
+        }
     }
 
     /// The head's half-profile (lines and arcs in (radial, z)); a ball gives its half circle.

@@ -61,6 +61,8 @@ pub struct Sweep {
     inverse: Vec<DAffine3>,
     /// World centre of the head's bounding ball at each sub-pose.
     centres: Vec<DVec3>,
+    /// World ends of the head's axis at each sub-pose (non-round heads; see [`Burr::axis_extent`]).
+    axes: Vec<(DVec3, DVec3)>,
     pub substeps: usize,
     /// Index box of the patch (inclusive).
     pub lo: IVec3,
@@ -153,21 +155,37 @@ impl Sweep {
         self.substeps = n;
         self.inverse.clear();
         self.centres.clear();
+        self.axes.clear();
+        let (z_min, z_max, r_axis) = burr.axis_extent();
         for s in 0..=n {
             let u = s as f64 / n as f64;
             let pose = DAffine3::from_rotation_translation(q0.slerp(q1, u), t0.lerp(t1, u));
             self.inverse.push(pose.inverse());
             self.centres.push(pose.transform_point3(DVec3::new(0.0, 0.0, cz)));
+            if burr.ball_radius().is_none() {
+                self.axes.push((pose.transform_point3(DVec3::new(0.0, 0.0, z_min)), pose.transform_point3(DVec3::new(0.0, 0.0, z_max))));
+            }
         }
         let cutoff = band + 1.5 * voxel;
         let reach = rb + cutoff;
+        // The head lies in its bounding ball and, when it has an axis, in the capsule about it.
+        let axis_reach = r_axis + cutoff;
         let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
         for c in &self.centres {
-            lo = lo.min(*c);
-            hi = hi.max(*c);
+            lo = lo.min(*c - reach);
+            hi = hi.max(*c + reach);
         }
-        let lo = ((lo - reach) / voxel).floor().as_ivec3();
-        let hi = ((hi + reach) / voxel).ceil().as_ivec3();
+        if !self.axes.is_empty() {
+            let (mut a_lo, mut a_hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+            for (a, b) in &self.axes {
+                a_lo = a_lo.min(a.min(*b) - axis_reach);
+                a_hi = a_hi.max(a.max(*b) + axis_reach);
+            }
+            lo = lo.max(a_lo);
+            hi = hi.min(a_hi);
+        }
+        let lo = (lo / voxel).floor().as_ivec3();
+        let hi = (hi / voxel).ceil().as_ivec3();
         let dims = (hi - lo + IVec3::ONE).max(IVec3::ONE).as_uvec3();
         self.lo = lo;
         self.hi = hi;
@@ -238,6 +256,17 @@ impl Sweep {
                         x_lo = x_lo.min(a.x.min(b.x) - half);
                         x_hi = x_hi.max(a.x.max(b.x) + half);
                     }
+                }
+                if !self.axes.is_empty() {
+                    let (mut c_lo, mut c_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+                    for (a, b) in &self.axes {
+                        if let Some((l, h)) = line_capsule_x(y, z, *a, *b, axis_reach) {
+                            c_lo = c_lo.min(l);
+                            c_hi = c_hi.max(h);
+                        }
+                    }
+                    x_lo = x_lo.max(c_lo);
+                    x_hi = x_hi.min(c_hi);
                 }
                 if x_lo > x_hi {
                     continue;
@@ -406,6 +435,59 @@ fn same_pose(a: &DAffine3, b: &DAffine3) -> bool {
 
 /// Distance in the (y, z) plane from a point to a segment: a lower bound on the 3-D distance
 /// from any point of the row through it.
+/// The x-interval of the line {(x, y, z)} within distance `r` of the segment from `a` to `b`
+/// (a capsule is convex: the hull of its two balls' and its cylinder's intervals), if any.
+fn line_capsule_x(y: f64, z: f64, a: DVec3, b: DVec3, r: f64) -> Option<(f64, f64)> {
+    // A hair wider, so rounding never drops a tangent point.
+    let r = r * (1.0 + 1e-12) + 1e-9;
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut take = |l: f64, h: f64| {
+        if l <= h {
+            lo = lo.min(l);
+            hi = hi.max(h);
+        }
+    };
+    for c in [a, b] {
+        let d2 = (y - c.y) * (y - c.y) + (z - c.z) * (z - c.z);
+        if d2 <= r * r {
+            let half = (r * r - d2).sqrt();
+            take(c.x - half, c.x + half);
+        }
+    }
+    let u = b - a;
+    let len = u.length();
+    if len > 0.0 {
+        let u = u / len;
+        // p(x) − a = w + x·X; the distance to the axis line is quadratic in x, its foot linear.
+        let w = DVec3::new(-a.x, y - a.y, z - a.z);
+        let wu = w.dot(u);
+        let (qa, qb, qc) = (1.0 - u.x * u.x, 2.0 * (w.x - wu * u.x), w.length_squared() - wu * wu - r * r);
+        let (mut l, mut h) = if qa > 1e-12 {
+            let disc = qb * qb - 4.0 * qa * qc;
+            if disc < 0.0 {
+                (1.0, 0.0)
+            } else {
+                let s = disc.sqrt();
+                ((-qb - s) / (2.0 * qa), (-qb + s) / (2.0 * qa))
+            }
+        } else if qc <= 0.0 {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        } else {
+            (1.0, 0.0)
+        };
+        // Within the slab 0 ≤ (p − a)·u ≤ len.
+        if u.x.abs() > 1e-12 {
+            let (s0, s1) = ((-wu) / u.x, (len - wu) / u.x);
+            l = l.max(s0.min(s1));
+            h = h.min(s0.max(s1));
+        } else if !(0.0..=len).contains(&wu) {
+            h = l - 1.0;
+        }
+        take(l, h);
+    }
+    (lo <= hi).then_some((lo, hi))
+}
+
 fn segment_distance_2d(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
     let (abx, aby) = (b.0 - a.0, b.1 - a.1);
     let len2 = abx * abx + aby * aby;
@@ -419,4 +501,44 @@ fn segment_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
     let ab = b - a;
     let t = ((p - a).dot(ab) / ab.length_squared().max(f64::MIN_POSITIVE)).clamp(0.0, 1.0);
     (p - (a + ab * t)).length()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The interval holds exactly the row's points within reach of the segment (brute force).
+    #[test]
+    fn line_capsule_interval_matches_brute_force() {
+        let cases = [
+            (DVec3::new(0.1, 0.2, -0.3), DVec3::new(0.5, 1.9, 2.2), 0.7),
+            (DVec3::new(0.0, 0.0, 0.0), DVec3::new(0.0, 0.0, 4.0), 0.8),
+            (DVec3::new(-1.0, 0.3, 0.2), DVec3::new(2.0, 0.3, 0.2), 0.5),
+            (DVec3::new(0.4, 0.4, 0.4), DVec3::new(0.4, 0.4, 0.4), 0.6),
+        ];
+        for (a, b, r) in cases {
+            for yi in -30..=30 {
+                for zi in -30..=60 {
+                    let (y, z) = (yi as f64 * 0.1, zi as f64 * 0.1);
+                    let got = line_capsule_x(y, z, a, b, r);
+                    let within = |reach: f64| -> Vec<f64> {
+                        (-400..=400).map(|i| i as f64 * 0.01).filter(|x| segment_distance(DVec3::new(*x, y, z), a, b) <= reach).collect()
+                    };
+                    // Every point within r - 1e-6 is in the interval; the interval holds no point
+                    // beyond r + 1e-6 but for the 0.01 mm step of the brute force.
+                    let (inner, outer) = (within(r - 1e-6), within(r + 1e-6));
+                    if let (Some(f), Some(e)) = (inner.first(), inner.last()) {
+                        let (l, h) = got.unwrap_or_else(|| panic!("{a} {b} {r} row ({y}, {z}): none, points within reach"));
+                        assert!(l <= *f + 1e-9 && h >= *e - 1e-9, "{a} {b} {r} row ({y}, {z}): [{l}, {h}] misses [{f}, {e}]");
+                    }
+                    if let Some((l, h)) = got {
+                        match (outer.first(), outer.last()) {
+                            (Some(f), Some(e)) => assert!(l >= f - 0.011 && h <= e + 0.011, "{a} {b} {r} row ({y}, {z}): [{l}, {h}] beyond [{f}, {e}]"),
+                            _ => assert!(h - l < 0.02, "{a} {b} {r} row ({y}, {z}): [{l}, {h}] where nothing is within reach"),
+                        }
+                    }
+                }
+            }
+        }
+    }
 }
