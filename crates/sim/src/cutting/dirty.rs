@@ -2,12 +2,14 @@
 //! voxel values from its origin −1 to origin +8, so a changed voxel dirties its own leaf and, when
 //! it sits on a leaf's first or last layer, the neighbouring leaf on that side.
 use std::collections::HashSet;
-use std::hash::{BuildHasherDefault, Hasher};
+use std::hash::BuildHasherDefault;
 
 use dentsim_vdb::VoxelChange;
 use glam::IVec3;
 
 use dentsim_vdb::LEAF_DIM;
+
+use crate::tissues::surface::LeafHasher;
 
 /// Dirty leaf origins per tissue (index into the model's tissues), as a set whose capacity is
 /// reserved up front: recording allocates nothing until 64 k distinct chunks are dirty at once
@@ -111,31 +113,6 @@ fn neighbour_mask(local: IVec3) -> u32 {
         }
     }
     mask
-}
-
-/// A multiply-rotate hash for small integer keys: leaf origins are not adversarial input, and
-/// SipHash would cost more than the cut itself.
-#[derive(Default)]
-pub struct LeafHasher(u64);
-
-impl Hasher for LeafHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for b in bytes {
-            self.write_u64(u64::from(*b));
-        }
-    }
-    fn write_u64(&mut self, v: u64) {
-        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-    fn write_i32(&mut self, v: i32) {
-        self.write_u64(v as u32 as u64);
-    }
-    fn write_usize(&mut self, v: usize) {
-        self.write_u64(v as u64);
-    }
 }
 
 #[cfg(test)]

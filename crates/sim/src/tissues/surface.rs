@@ -13,13 +13,13 @@
 //! vertices repeated) and every finished surface ([`surface`], [`Mesher::surface`]: the same
 //! triangles with each cell's vertex shared, so the surface is closed) come from it.
 use std::collections::{BTreeMap, HashMap};
-use std::hash::BuildHasherDefault;
+use std::hash::{BuildHasherDefault, Hasher};
 use std::sync::Arc;
 
 use dentsim_vdb::{LevelSet, TriMesh, LEAF_DIM};
 use glam::{IVec3, Vec3};
+use rayon::prelude::*;
 
-use crate::cutting::dirty::LeafHasher;
 use crate::error::Result;
 use crate::tissues::model::TissueModel;
 
@@ -157,17 +157,47 @@ impl Mesher {
     }
 }
 
-/// A grid's closed surface: every leaf meshed, seams joined (see [`Mesher::surface`]).
+/// A multiply-rotate hash for small integer keys: leaf origins are not adversarial input, and
+/// SipHash would cost more than the cut itself.
+#[derive(Default)]
+pub struct LeafHasher(u64);
+
+impl Hasher for LeafHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for b in bytes {
+            self.write_u64(u64::from(*b));
+        }
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0.rotate_left(5) ^ v).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+    }
+    fn write_i32(&mut self, v: i32) {
+        self.write_u64(v as u32 as u64);
+    }
+    fn write_usize(&mut self, v: usize) {
+        self.write_u64(v as u64);
+    }
+}
+
+/// A grid's closed surface: every leaf meshed, on every core (chunks are independent, and the
+/// grid is only read), seams joined (see [`Mesher::surface`]).
 pub fn surface(grid: &LevelSet) -> Result<TriMesh> {
-    let mut values = vec![0.0; N * N * N];
+    let meshed: Vec<Result<(IVec3, ChunkMesh)>> = grid
+        .leaf_origins()
+        .into_par_iter()
+        .map_init(|| vec![0.0; N * N * N], |values, origin| Ok((origin, mesh_chunk(grid, origin, values)?)))
+        .collect();
     let mut chunks = BTreeMap::new();
-    for origin in grid.leaf_origins() {
-        let c = mesh_chunk(grid, origin, &mut values)?;
+    for m in meshed {
+        let (origin, c) = m?;
         if !c.triangles.is_empty() {
             chunks.insert(origin.into(), Arc::new(c));
         }
     }
-    Ok(Mesher { tissues: vec![chunks], values }.surface(0))
+    Ok(Mesher { tissues: vec![chunks], values: Vec::new() }.surface(0))
 }
 
 /// The triangles of the chunk whose leaf starts at `origin`.
