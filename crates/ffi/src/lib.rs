@@ -402,18 +402,7 @@ mod tests {
     fn live_session_runs_and_reports_bad_devices() {
         let err = start_session(&SessionParams { device: "hand:push=x".into(), ..default_session() }).err().expect("refused");
         assert!(err.contains("field 'push'"), "{err}");
-        let params = SessionParams {
-            phantom_voxel_mm: 0.1,
-            device: "hand:start=0:0:5.8,target=0:0:4.0,duration=0.3".into(),
-            realtime: false,
-            ..default_session()
-        };
-        let mut s = start_session(&params).unwrap();
-        let mut state = s.poll().unwrap();
-        while state.running {
-            std::thread::sleep(std::time::Duration::from_millis(5));
-            state = s.poll().unwrap();
-        }
+        let (s, state) = run_down_onto_the_phantom(default_session().burr);
         assert_eq!(state.tick, 301);
         assert_eq!(state.contact_tissue, "enamel");
         assert!(state.force_n[2] > 0.1, "{:?}", state.force_n);
@@ -424,15 +413,14 @@ mod tests {
         assert!((top - (state.burr_position_mm[2] + 1.0)).abs() < 0.05, "{top}");
     }
 
-    #[test]
-    fn live_session_cuts_with_the_burr_it_names() {
-        let err = start_session(&SessionParams { burr: "cone:1".into(), ..default_session() }).err().expect("refused");
-        assert!(err.contains("burr 'cone:1'") && err.contains("shape 'cone'"), "{err}");
+    /// A simulated hand pressing 0.3 s down onto the capsule phantom's top with `burr`, polled
+    /// to its end.
+    fn run_down_onto_the_phantom(burr: String) -> (Box<HapticSession>, SessionState) {
         let params = SessionParams {
             phantom_voxel_mm: 0.1,
             device: "hand:start=0:0:5.8,target=0:0:4.0,duration=0.3".into(),
             realtime: false,
-            burr: "cylinder_flat:1.2:3".into(),
+            burr,
             ..default_session()
         };
         let mut s = start_session(&params).unwrap();
@@ -441,6 +429,14 @@ mod tests {
             std::thread::sleep(std::time::Duration::from_millis(5));
             state = s.poll().unwrap();
         }
+        (s, state)
+    }
+
+    #[test]
+    fn live_session_cuts_with_the_burr_it_names() {
+        let err = start_session(&SessionParams { burr: "cone:1".into(), ..default_session() }).err().expect("refused");
+        assert!(err.contains("burr 'cone:1'") && err.contains("shape 'cone'"), "{err}");
+        let (s, state) = run_down_onto_the_phantom("cylinder_flat:1.2:3".into());
         assert_eq!(state.contact_tissue, "enamel");
         // The burr drawn is the cylinder: 3 mm tall and 1.2 mm across.
         let burr = s.burr_surface().unwrap();
