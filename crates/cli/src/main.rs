@@ -23,6 +23,7 @@ enum Command {
     /// Build the phantom, cut a stroke, write surfaces, tissues.vdb and summary.json.
     Demo(demo::Args),
     /// Turn a CBCT scan into one tooth's tissue level sets (.vdb) and a report.
+    #[command(visible_alias = "tissues-from-scan")]
     Segment(segment::Args),
     /// Cut a tool path with a burr into tissues; write the prepared tissues and prepare.json.
     Prepare(prepare::Args),

@@ -104,3 +104,13 @@ fn bad_input_names_the_file_and_writes_nothing() {
         assert!(!out.exists(), "nothing written for {args:?}");
     }
 }
+
+/// The feature's name elsewhere (sim's TissuesFromScan, the plugin's "Tissues From Scan") is an
+/// alias of `segment`.
+#[test]
+fn tissues_from_scan_is_segment() {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_dentsim")).args(["tissues-from-scan", "--help"]).output().unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let help = String::from_utf8_lossy(&out.stdout);
+    assert!(help.contains("--voxel") && help.contains("--tooth"), "{help}");
+}
