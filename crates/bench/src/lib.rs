@@ -382,7 +382,8 @@ pub const LOOP_RUNS: usize = 3;
 
 /// A real-time session (1 kHz, raised priority where permitted) with a scripted device cutting
 /// down into the tooth while the mesher runs at its default rate ([`DEFAULT_MESHER_HZ`]): tick
-/// periods and cut → visible latency, pooled over [`LOOP_RUNS`] sessions on fresh copies of the tooth (the same path each time: the
+/// periods and cut → visible latency, pooled over [`LOOP_RUNS`] sessions on fresh copies of the
+/// tooth (the same path each time: the
 /// p99.9 of one 3 s run is its third-worst period, at the mercy of a single hiccup of the machine).
 /// No peer runs these; the rows carry the goals instead.
 pub fn loop_period(tooth: &BenchTooth, seconds: f64) -> Result<Vec<BenchRow>> {

@@ -4,9 +4,9 @@
 //! midway between neighbouring tissues' grey values. Manual peaks override. Cost: one pass over
 //! the voxels plus a search over peak-to-tissue matchings (a few thousand, microseconds).
 
+use crate::Label;
 use crate::error::{Error, Result};
 use crate::volume::Volume;
-use crate::Label;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 

@@ -18,9 +18,9 @@
 //! is not clamped to 0..1.
 //! Cost: three Euclidean distance transforms and a few linear passes over the (cropped) volume.
 
+use crate::Label;
 use crate::calibrate::Calibration;
 use crate::volume::{LabelVolume, Volume};
-use crate::Label;
 use rayon::prelude::*;
 
 /// Band of surround summed around the tissue, in voxels.

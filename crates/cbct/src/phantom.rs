@@ -7,8 +7,8 @@
 //! one label at every point. Simplifications: round cusps, one canal per root, canals closed 2 mm
 //! short of the apex, no lamina dura, no cementum, no tongue or cheeks.
 
-use crate::volume::{LabelVolume, SourceInfo, Volume, IDENTITY};
 use crate::Label;
+use crate::volume::{LabelVolume, SourceInfo, Volume, IDENTITY};
 use glam::DVec3;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;

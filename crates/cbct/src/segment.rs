@@ -18,11 +18,11 @@
 //! Cost: a few linear passes over the volume for steps 1–2; the rest in the tooth's box (a few
 //! distance transforms there) and in the metal's and the lesions' boxes.
 
+use crate::Label;
 use crate::calibrate::Calibration;
 use crate::error::{Error, Result};
 use crate::partial_volume::distance_mm;
 use crate::volume::{LabelVolume, Volume};
-use crate::Label;
 use rayon::prelude::*;
 use std::collections::VecDeque;
 

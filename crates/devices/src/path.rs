@@ -203,7 +203,8 @@ impl ToolPath {
     }
 
     /// The pose (lerp of positions, slerp of orientations), speed (lerp) and pedal (held from
-    /// the earlier sample) at `t` as a scripted device plays it, held at the ends. Allocation-free (a scripted device calls it per tick).
+    /// the earlier sample) at `t` as a scripted device plays it, held at the ends. Allocation-free
+    /// (a scripted device calls it per tick).
     pub fn state_at(&self, t: f64) -> PathState {
         let s = &self.samples;
         let Some(last) = s.last() else {

@@ -3,10 +3,11 @@
 //! Per tick: the swept head becomes a dense patch of signed distances ([`Sweep`]), and every
 //! tissue takes `max(value, -(tool + offset))` over it in place (`LevelSet::subtract_logged`),
 //! with offset 0 for geometric cuts and a partial depth when a removal rate limits the tick
-//! ([`crate::cutting::removal`]). The changed voxels' old values feed the undo journal ([`History`]); by
-//! [`Handoff`], either the dirty-chunk set a mesher drains ([`DirtyLeaves`]) or each tissue's
-//! changed voxels with their new values, which a session hands to its mesher's copy of the grids. Once its buffers have grown to the
-//! largest stroke, [`Cutter::cut_with`] allocates nothing.
+//! ([`crate::cutting::removal`]). The changed voxels' old values feed the undo journal
+//! ([`History`]); by [`Handoff`], either the dirty-chunk set a mesher drains ([`DirtyLeaves`]) or
+//! each tissue's changed voxels with their new values, which a session hands to its mesher's copy
+//! of the grids. Once its buffers have grown to the largest stroke, [`Cutter::cut_with`] allocates
+//! nothing.
 //!
 //! A stroke ends in a head every grid has lost (a round burr's: a ball). While no one else edits
 //! the grids (their stamps are the ones this cutter left), the next stroke skips the voxels that
@@ -17,11 +18,11 @@ use serde::Serialize;
 
 use crate::burr::Burr;
 use crate::cutting::dirty::DirtyLeaves;
-use crate::error::Result;
 use crate::cutting::history::History;
-use crate::tissues::model::TissueModel;
 use crate::cutting::removal::{pick_offset, Feed, RemovalBank, MAX_BANKED_S, OFFSET_SAMPLES};
 use crate::cutting::sweep::{CutBall, CutHead, Done, Sweep};
+use crate::error::Result;
+use crate::tissues::model::TissueModel;
 
 /// Volume each tissue lost to one stroke.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]

@@ -7,16 +7,16 @@ use glam::{DAffine3, DVec3};
 use serde::{Deserialize, Serialize};
 
 use crate::burr::Burr;
-use crate::haptics::contact::{BurrSamples, ContactQuery};
 use crate::cutting::cutter::{Cutter, Handoff};
-use crate::cutting::sweep::Done;
 use crate::cutting::removal::Feed;
+use crate::cutting::sweep::Done;
 use crate::error::{invalid, Result};
+use crate::haptics::contact::{BurrSamples, ContactQuery};
 use crate::haptics::filter::{clamp_length, FilterSpec, ForceFilter};
 use crate::haptics::force::{contact_force, ContactForce, Mechanics, MAX_TISSUES};
-use crate::tissues::model::TissueModel;
 use crate::haptics::proxy::Proxy;
 use crate::haptics::watchdog::{Watchdog, WatchdogParams};
+use crate::tissues::model::TissueModel;
 
 /// How deep (mm) the proxy may rest in tissue in cut mode (see [`Proxy::follow_cut`]): rounding
 /// only. The proxy sits in its own cut because the contact query counts the burr at the end of the

@@ -10,11 +10,11 @@ use serde::Serialize;
 
 use crate::burr::Burr;
 use crate::error::{invalid, Result};
-use crate::tissues::export::SUMMARY_NAME;
-use crate::tissues::model::{TissueModel, TissueVolumes};
 use crate::plan::path::{PathLimits, PathSample, ToolPath};
 use crate::plan::prepare::{prepare, PrepareOptions, PrepareReport};
+use crate::tissues::export::SUMMARY_NAME;
 use crate::tissues::from_scan::{ScanReport, TissuesFromScan};
+use crate::tissues::model::{TissueModel, TissueVolumes};
 use crate::tissues::table::TissueTable;
 
 const FDI: u8 = 36;

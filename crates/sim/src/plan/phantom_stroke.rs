@@ -6,8 +6,8 @@ use serde::{Deserialize, Serialize};
 use crate::burr::Burr;
 use crate::cutting::cutter::Cutter;
 use crate::error::{invalid, Result};
-use crate::tissues::model::{TissueModel, TissueVolumes};
 use crate::tissues::capsule::CapsuleTooth;
+use crate::tissues::model::{TissueModel, TissueVolumes};
 use crate::tissues::table::TissueTable;
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

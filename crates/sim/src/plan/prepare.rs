@@ -8,11 +8,11 @@ use serde::Serialize;
 
 use crate::burr::Burr;
 use crate::cutting::cutter::Cutter;
+use crate::cutting::removal::Feed;
 use crate::error::Result;
+use crate::plan::path::{PathLimits, ToolPath};
 use crate::tissues::export::PREPARE_SUMMARY_NAME;
 use crate::tissues::model::{TissueModel, TissueVolumes};
-use crate::plan::path::{PathLimits, ToolPath};
-use crate::cutting::removal::Feed;
 
 /// How to cut along the path.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -17,10 +17,10 @@ use crate::error::{invalid, Result};
 use crate::haptics::filter::FilterSpec;
 use crate::haptics::tick::{HapticParams, DEFAULT_BURR};
 use crate::session::log::TickRecord;
-use crate::tissues::surface::{surface, SurfaceFrame};
-use crate::tissues::model::TissueModel;
-use crate::tissues::capsule::CapsuleTooth;
 use crate::session::threads::{Session, SessionOptions};
+use crate::tissues::capsule::CapsuleTooth;
+use crate::tissues::model::TissueModel;
+use crate::tissues::surface::{surface, SurfaceFrame};
 use crate::tissues::table::{TissueProps, TissueTable};
 
 /// What to start.

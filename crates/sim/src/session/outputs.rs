@@ -11,14 +11,14 @@ use dentsim_devices::{DeviceProfile, DeviceSpec};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{invalid, Error, Result};
-use crate::tissues::export::{write_model, FORCES_CSV_NAME, FORCES_PNG_NAME, LOG_NAME, REPLAY_SUMMARY_NAME, SUMMARY_NAME};
 use crate::haptics::filter::FilterSpec;
 use crate::haptics::tick::HapticParams;
 use crate::session::log::SessionLog;
-use crate::tissues::model::{TissueModel, TissueVolumes};
 use crate::session::plot::plot_forces;
 use crate::session::replay::{replay_with_progress, write_force_csv};
 use crate::session::threads::{Session, SessionOptions};
+use crate::tissues::export::{write_model, FORCES_CSV_NAME, FORCES_PNG_NAME, LOG_NAME, REPLAY_SUMMARY_NAME, SUMMARY_NAME};
+use crate::tissues::model::{TissueModel, TissueVolumes};
 use crate::tissues::table::TissueTable;
 
 /// What to run.
@@ -110,14 +110,12 @@ fn create_dir(out: &Path) -> Result<()> {
 fn write_tissues(
     model: &mut TissueModel,
     out: &Path,
-    before: &[(String, f64)],
-    removed: &[(String, f64)],
+    volumes: Vec<TissueVolumes>,
     contact_s: &[f64],
     progress: &mut dyn FnMut(&str, f64),
 ) -> Result<Vec<TissueSummary>> {
     let triangles = write_model(model, out, progress)?;
-    let removed = |name: &str| removed.iter().find(|(n, _)| n == name).map_or(0.0, |r| r.1);
-    let tissues = TissueVolumes::of(model, before, removed)
+    let tissues = volumes
         .into_iter()
         .zip(&model.tissues)
         .enumerate()
@@ -146,8 +144,6 @@ pub fn run_session_to_dir(req: &SessionRequest, progress: &mut dyn FnMut(&str, f
     let (device, duration_s) = spec.open().map_err(|e| invalid("device", e.to_string()))?;
     crate::burr::Burr::parse(&req.burr)?;
     let params = HapticParams { profile, filter, burr: req.burr.clone(), ..HapticParams::default() };
-    let before = model.volumes();
-
     create_dir(&req.out)?;
     let period = params.period_s;
     // The log is staged until the tissues are written too: a failed session leaves none.
@@ -169,7 +165,8 @@ pub fn run_session_to_dir(req: &SessionRequest, progress: &mut dyn FnMut(&str, f
         }
         let mut outcome = session.stop()?;
         let contact_s: Vec<f64> = outcome.contact_ticks.iter().map(|(_, t)| *t as f64 * period).collect();
-        let tissues = write_tissues(&mut outcome.model, &req.out, &before, &outcome.removed_mm3, &contact_s, progress)?;
+        let volumes = outcome.volumes.clone();
+        let tissues = write_tissues(&mut outcome.model, &req.out, volumes, &contact_s, progress)?;
         Ok((outcome, tissues))
     })?;
     let summary = SessionSummary {
@@ -220,7 +217,9 @@ pub fn replay_to_dir(log_path: &Path, tissues: &Path, out: &Path, progress: &mut
     }
     let names: Vec<String> = again.model.tissues.iter().map(|t| t.props.name.clone()).collect();
     let colours: Vec<[f32; 3]> = again.model.tissues.iter().map(|t| t.props.colour).collect();
-    let tissues_out = write_tissues(&mut again.model, out, &before, &again.removed_mm3, &contact, progress)?;
+    let removed = |name: &str| again.removed_mm3.iter().find(|(n, _)| n == name).map_or(0.0, |r| r.1);
+    let volumes = TissueVolumes::of(&again.model, &before, removed);
+    let tissues_out = write_tissues(&mut again.model, out, volumes, &contact, progress)?;
     progress("writing forces", 1.0);
     write_force_csv(&out.join(FORCES_CSV_NAME), &again.forces, &names)?;
     plot_forces(&out.join(FORCES_PNG_NAME), &again.forces, &colours, 1200, 500)?;

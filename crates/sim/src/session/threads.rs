@@ -30,13 +30,13 @@ use glam::{DAffine3, DVec3};
 use crate::burr::Burr;
 use crate::cutting::cutter::{Cutter, Handoff};
 use crate::cutting::dirty::DirtyLeaves;
-use crate::haptics::force::MAX_TISSUES;
+use crate::cutting::sweep::Done;
 use crate::error::{invalid, Error, Result};
+use crate::haptics::force::MAX_TISSUES;
 use crate::haptics::tick::{HapticCore, HapticParams};
 use crate::session::log::{write_header, write_record, LogHeader, TickRecord, FLAG_CUT, FLAG_DEVICE_FAULT, FLAG_MISSED};
+use crate::tissues::model::{TissueModel, TissueVolumes};
 use crate::tissues::surface::{Mesher, SurfaceFrame};
-use crate::tissues::model::TissueModel;
-use crate::cutting::sweep::Done;
 
 /// How a session runs.
 #[derive(Clone, Debug)]
@@ -87,6 +87,8 @@ pub struct SessionOutcome {
     pub strokes_recut: u64,
     /// Volume removed per tissue (mm³): the volume at the start minus the volume at the end.
     pub removed_mm3: Vec<(String, f64)>,
+    /// Each tissue's volume at the start and the end and what it lost (model order).
+    pub volumes: Vec<TissueVolumes>,
     /// Ticks spent in contact with each tissue.
     pub contact_ticks: Vec<(String, u64)>,
     pub max_force_n: f64,
@@ -305,6 +307,16 @@ impl Session {
         let haptic = haptic?;
         let logger = logger?;
         let names = self.names.clone();
+        // Each grid's volume once: the removed volume is the volume at the start less at the end.
+        let volumes: Vec<TissueVolumes> = names
+            .iter()
+            .zip(&self.start_volumes)
+            .zip(&model.tissues)
+            .map(|((name, before), t)| {
+                let after = t.grid.volume();
+                TissueVolumes { name: name.clone(), volume_before_mm3: *before, volume_after_mm3: after, removed_mm3: before - after }
+            })
+            .collect();
         Ok(SessionOutcome {
             ticks: haptic.ticks,
             missed_deadlines: haptic.missed,
@@ -313,7 +325,8 @@ impl Session {
             dropped_records: haptic.dropped_records,
             dropped_strokes: haptic.dropped_strokes,
             strokes_recut: haptic.recut,
-            removed_mm3: names.iter().cloned().zip(&self.start_volumes).zip(&model.tissues).map(|((n, v0), t)| (n, v0 - t.grid.volume())).collect(),
+            removed_mm3: volumes.iter().map(|v| (v.name.clone(), v.removed_mm3)).collect(),
+            volumes,
             contact_ticks: names.iter().cloned().zip(logger.contact_ticks).collect(),
             max_force_n: logger.max_force,
             periods_us: logger.periods_us,
