@@ -72,6 +72,21 @@ fn grids_written_by_openvdb_tools_take_the_tables_defaults() {
     // A 1.0 mm ball plunged 1 mm deep into a 3 mm sphere: a capsule of length ~1 mm inside.
     let removed = json["removed_mm3"]["dentin"].as_f64().unwrap();
     assert!(removed > 0.5 && removed < 1.2, "{removed}");
+    // The surface of a grid OpenVDB wrote, cut by us, is closed as VTK's own reader and
+    // vtkFeatureEdges see it (python3-paraview's VTK).
+    let script = "import sys\n\
+from vtkmodules.vtkIOXML import vtkXMLPolyDataReader\n\
+from vtkmodules.vtkFiltersCore import vtkFeatureEdges\n\
+r = vtkXMLPolyDataReader(); r.SetFileName(sys.argv[1]); r.Update()\n\
+f = vtkFeatureEdges(); f.SetInputConnection(r.GetOutputPort())\n\
+f.BoundaryEdgesOn(); f.NonManifoldEdgesOff(); f.FeatureEdgesOff(); f.ManifoldEdgesOff(); f.Update()\n\
+print(r.GetOutput().GetNumberOfPolys(), f.GetOutput().GetNumberOfLines())\n";
+    let vtp = out.join("dentin.vtp");
+    let checked = Command::new("/usr/bin/python3").args(["-c", script, vtp.to_str().unwrap()]).output().unwrap();
+    assert!(checked.status.success(), "VTK: {}", String::from_utf8_lossy(&checked.stderr));
+    let counts: Vec<u64> = String::from_utf8_lossy(&checked.stdout).split_whitespace().map(|n| n.parse().unwrap()).collect();
+    assert!(counts[0] > 1000, "VTK read {} triangles", counts[0]);
+    assert_eq!(counts[1], 0, "VTK finds {} boundary edges on the exported surface", counts[1]);
 }
 
 #[test]
