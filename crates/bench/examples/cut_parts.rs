@@ -1,52 +1,72 @@
 //! Splits the bench's cut ticks into sweep and per-tissue subtract (fastest of several runs), for
-//! profiling (`dentsim bench` is the reference).
-use std::time::Instant;
+//! profiling (`dentsim bench` is the reference). `BURR=spec` for another burr (default the round
+//! 1 mm); `SKIP=1` for unmeasured cuts, as a session's haptic ticks make.
+/// This thread's CPU time (s): unlike the wall clock, not inflated while other work holds the
+/// cores.
+fn cpu_now() -> f64 {
+    let mut t = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    // SAFETY: clock_gettime writes the timespec it is given.
+    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) };
+    t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
+}
 
 use dentsim_bench::{bench_stroke_tip, bench_tooth};
 use dentsim_sim::burr::Burr;
-use dentsim_sim::cutting::sweep::{CutBall, Sweep};
+use dentsim_sim::cutting::sweep::{CutBall, CutHead, Done, Sweep};
 use dentsim_vdb::Measure;
 use glam::DVec3;
 
 fn main() {
     let tooth = bench_tooth().unwrap();
-    let burr = Burr::round(1.0).unwrap();
+    let burr = Burr::parse(&std::env::var("BURR").unwrap_or_else(|_| "round:1".into())).unwrap();
     let tip = |i| bench_stroke_tip(tooth.occlusal, i);
-    let rounds = 6;
+    let rounds = 4;
     let n = 400;
     let tissues = tooth.model.tissues.len();
     let mut sweep_t = vec![f64::INFINITY; n];
     let mut sub_t = vec![vec![f64::INFINITY; n]; tissues];
     let mut changed = vec![0u64; tissues];
-    let mut read = 0usize;
-    // SKIP=1: unmeasured cuts, as a session's haptic ticks make.
+    let (mut within, mut spanned) = (0usize, 0usize);
     let measure = if std::env::var("SKIP").is_ok() { Measure::Skip } else { Measure::Volume };
+    let (h, band) = (0.05, 0.15);
+    let cutoff = (band + 1.5 * h) as f32;
     for _ in 0..rounds {
         let mut model = tooth.model.clone();
         model.voxelize_for_cutting().unwrap();
         let mut sweep = Sweep::default();
         let mut log = Vec::new();
         for i in 0..n {
-            let done = (i > 0).then(|| CutBall { centre: tip(i).transform_point3(DVec3::new(0.0, 0.0, 0.5)), radius: 0.5 });
-            let s = Instant::now();
-            sweep.build(&burr, tip(i), tip(i + 1), 0.05, 0.15, done).unwrap();
-            sweep_t[i] = sweep_t[i].min(s.elapsed().as_secs_f64() * 1e6);
-            read += sweep.patch.values.iter().filter(|v| **v < 0.2).count();
+            let done = (i > 0).then(|| match burr.ball_radius() {
+                Some(r) => Done::Ball(CutBall { centre: tip(i).transform_point3(DVec3::new(0.0, 0.0, r)), radius: r }),
+                None => Done::Head(CutHead { to_tool: tip(i).inverse(), offset: 0.0 }),
+            });
+            let grids = &model.tissues;
+            let s = cpu_now();
+            sweep
+                .build_in(&burr, tip(i), tip(i + 1), h, band, done, |lo, dims, blocks| {
+                    grids.iter().try_for_each(|t| t.grid.mark_material_blocks(lo, dims, blocks).map_err(Into::into))
+                })
+                .unwrap();
+            sweep_t[i] = sweep_t[i].min((cpu_now() - s) * 1e6);
+            within += sweep.patch.values.iter().filter(|v| **v < cutoff).count();
+            spanned += sweep.patch.spans.chunks(2).map(|s| (s[1] - s[0]) as usize).sum::<usize>();
             for (k, t) in model.tissues.iter_mut().enumerate() {
                 log.clear();
-                let s = Instant::now();
+                let s = cpu_now();
                 let st = t.grid.subtract_logged(&sweep.patch, 0.0, measure, &mut log).unwrap();
-                sub_t[k][i] = sub_t[k][i].min(s.elapsed().as_secs_f64() * 1e6);
+                sub_t[k][i] = sub_t[k][i].min((cpu_now() - s) * 1e6);
                 changed[k] += st.changed_voxels;
             }
         }
     }
     let med = |v: &mut Vec<f64>| {
         v.sort_by(f64::total_cmp);
-        v[v.len() / 2]
+        (v[v.len() / 2], v[v.len() * 99 / 100])
     };
-    println!("sweep p50 {:.1} us, voxels within reach {}/tick", med(&mut sweep_t), read / (n * rounds));
+    let (p50, p99) = med(&mut sweep_t);
+    println!("{}: sweep p50 {p50:.1} us p99 {p99:.1} us, voxels below the cut-off {}/tick, spanned {}/tick", burr.spec(), within / (n * rounds), spanned / (n * rounds));
     for (k, t) in tooth.model.tissues.iter().enumerate() {
-        println!("{:<7} subtract p50 {:.1} us, changed {}/tick", t.props.name, med(&mut sub_t[k]), changed[k] / (n * rounds) as u64);
+        let (p50, p99) = med(&mut sub_t[k]);
+        println!("{:<7} subtract p50 {p50:.1} us p99 {p99:.1} us, changed {}/tick", t.props.name, changed[k] / (n * rounds) as u64);
     }
 }

@@ -262,6 +262,15 @@ impl Burr {
         }
     }
 
+    /// For a convex head, (the highest point of its surface facing down, the lowest facing up)
+    /// along the axis (see [`Profile`]); None for a head with a dent.
+    pub fn facing_heights(&self) -> Option<(f64, f64)> {
+        match &self.head {
+            Head::Ball { radius } => Some((*radius, *radius)),
+            Head::Revolved(p) => p.convex.then_some((p.facing_down_below, p.facing_up_above)),
+        }
+    }
+
     /// The head's half-profile (lines and arcs in (radial, z)); a ball gives its half circle.
     pub fn head_profile(&self) -> Profile {
         match &self.head {

@@ -75,6 +75,41 @@ pub struct Profile {
     pub max_radius: f64,
     pub z_min: f64,
     pub z_max: f64,
+    /// Whether the solid (the profile and its mirror image across the axis) is convex.
+    pub convex: bool,
+    /// The highest point of the surface with an outward normal pointing down (−z), and the lowest
+    /// with one pointing up: above the first, the surface faces no lower than sideways.
+    pub facing_down_below: f64,
+    pub facing_up_above: f64,
+    /// The pieces readied for [`sdf`](Self::sdf), then the closing chord along the axis.
+    edges: Vec<Edge>,
+}
+
+/// A piece readied for [`Profile::sdf`]: what every evaluation would otherwise recompute.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Edge {
+    a: DVec2,
+    b: DVec2,
+    ab: DVec2,
+    inv_len2: f64,
+    /// The chord's run in ρ per unit of z (crossing test; unused when level).
+    dx_dz: f64,
+    /// Arcs keep their piece (distance and circular segment); a line's distance is inline.
+    arc: Option<Piece>,
+}
+
+impl Edge {
+    fn new(a: DVec2, b: DVec2, arc: Option<Piece>) -> Self {
+        let ab = b - a;
+        let dx_dz = if ab.y != 0.0 { ab.x / ab.y } else { 0.0 };
+        Edge { a, b, ab, inv_len2: 1.0 / ab.length_squared().max(f64::MIN_POSITIVE), dx_dz, arc }
+    }
+
+    /// Whether the ray from `q` toward +ρ crosses the chord (half-open in z), as the sign test needs.
+    #[inline(always)]
+    fn crossed_by(&self, q: DVec2) -> bool {
+        (self.a.y > q.y) != (self.b.y > q.y) && self.a.x + (q.y - self.a.y) * self.dx_dz > q.x
+    }
 }
 
 impl Profile {
@@ -102,7 +137,15 @@ impl Profile {
                 }
             }
         }
-        Profile { pieces, max_radius, z_min, z_max }
+        let (convex, facing_down_below, facing_up_above) = facing(&pieces);
+        let mut edges: Vec<Edge> = pieces
+            .iter()
+            .map(|p| Edge::new(p.start(), p.end(), matches!(p, Piece::Arc { .. }).then_some(*p)))
+            .collect();
+        if let (Some(first), Some(last)) = (pieces.first(), pieces.last()) {
+            edges.push(Edge::new(last.end(), first.start(), None));
+        }
+        Profile { pieces, max_radius, z_min, z_max, convex, facing_down_below, facing_up_above, edges }
     }
 
     /// Exact signed distance (negative inside) of the point at radius `rho` ≥ 0 and height `z`.
@@ -110,27 +153,87 @@ impl Profile {
         let p = DVec2::new(rho, z);
         // The sign test looks from just off the axis, so chords lying on the axis stay outside it.
         let q = DVec2::new(rho.max(1e-9), z);
-        let mut d = f64::INFINITY;
+        // Lines by squared distance (one root at the end), arcs by their own.
+        let (mut line2, mut arc) = (f64::INFINITY, f64::INFINITY);
         let mut inside = false;
-        for piece in &self.pieces {
-            d = d.min(piece.distance(p));
-            inside ^= crosses(piece.start(), piece.end(), q) ^ piece.in_segment(q);
+        let Some((closing, pieces)) = self.edges.split_last() else { return f64::INFINITY };
+        for e in pieces {
+            match e.arc {
+                None => {
+                    let ap = p - e.a;
+                    let t = (ap.dot(e.ab) * e.inv_len2).clamp(0.0, 1.0);
+                    line2 = line2.min((ap - e.ab * t).length_squared());
+                }
+                Some(piece) => {
+                    arc = arc.min(piece.distance(p));
+                    inside ^= piece.in_segment(q);
+                }
+            }
+            inside ^= e.crossed_by(q);
         }
         // The axis closes the chain (from the last end back to the first start).
-        if let (Some(first), Some(last)) = (self.pieces.first(), self.pieces.last()) {
-            inside ^= crosses(last.end(), first.start(), q);
-        }
+        inside ^= closing.crossed_by(q);
+        let d = line2.sqrt().min(arc);
         if inside { -d } else { d }
     }
 }
 
-/// Whether the ray from `p` toward +ρ crosses the chord from `a` to `b` (half-open in z).
-fn crosses(a: DVec2, b: DVec2, p: DVec2) -> bool {
-    if (a.y > p.y) == (b.y > p.y) {
-        return false;
+/// Convexity and the facing heights of [`Profile`], from the chain as a fine polygon (arcs in
+/// steps of at most π/512). A line's normal is its edge's; an arc's normals over one step lie
+/// within half a step of its chord's, so an arc edge facing within that of sideways counts as
+/// facing both ways (a bound, never short).
+fn facing(pieces: &[Piece]) -> (bool, f64, f64) {
+    const ARC_STEPS: usize = 1024;
+    // Points, each with the slack of the normal of the edge that ends there.
+    let mut chain: Vec<(DVec2, f64)> = Vec::new();
+    for piece in pieces {
+        match *piece {
+            Piece::Line { a, b } => chain.extend([(a, 0.0), (b, 0.0)]),
+            Piece::Arc { centre, radius, a, b, ccw } => {
+                let (sa, sb) = ((a - centre).to_angle(), (b - centre).to_angle());
+                let mut span = sb - sa;
+                if ccw && span < 0.0 {
+                    span += std::f64::consts::TAU;
+                }
+                if !ccw && span > 0.0 {
+                    span -= std::f64::consts::TAU;
+                }
+                let slack = (span.abs() / ARC_STEPS as f64).sin();
+                chain.extend((0..=ARC_STEPS).map(|i| (centre + DVec2::from_angle(sa + span * i as f64 / ARC_STEPS as f64) * radius, slack)));
+            }
+        }
     }
-    let x = a.x + (p.y - a.y) / (b.y - a.y) * (b.x - a.x);
-    x > p.x
+    chain.dedup_by(|a, b| (a.0 - b.0).length_squared() < 1e-24);
+    // The closed outline of the solid's section through the axis: the chain, then its mirror
+    // image back down. Its orientation says which side of an edge is outward.
+    let mut outline: Vec<DVec2> = chain.iter().map(|p| p.0).collect();
+    outline.extend(chain.iter().rev().map(|p| DVec2::new(-p.0.x, p.0.y)));
+    outline.dedup_by(|a, b| (*a - *b).length_squared() < 1e-24);
+    let n = outline.len();
+    let area2: f64 = (0..n).map(|i| outline[i].perp_dot(outline[(i + 1) % n])).sum();
+    let orientation = area2.signum();
+    let mut convex = n >= 3;
+    for i in 0..n {
+        let (a, b, c) = (outline[i], outline[(i + 1) % n], outline[(i + 2) % n]);
+        // A right turn in a counter-clockwise outline (or the reverse) is a dent.
+        if (b - a).perp_dot(c - b) * orientation < -1e-12 * (b - a).length() * (c - b).length() {
+            convex = false;
+        }
+    }
+    let (mut down_below, mut up_above) = (f64::NEG_INFINITY, f64::INFINITY);
+    for w in chain.windows(2) {
+        let ((a, _), (b, slack)) = (w[0], w[1]);
+        let d = b - a;
+        // The outward normal's z: the edge turned a quarter away from the inside.
+        let normal_z = -d.x * orientation / d.length();
+        if normal_z < slack {
+            down_below = down_below.max(a.y.max(b.y));
+        }
+        if normal_z > -slack {
+            up_above = up_above.min(a.y.min(b.y));
+        }
+    }
+    (convex, down_below, up_above)
 }
 
 /// The point where a line from external point `from` touches the circle, on the side of larger ρ.

@@ -157,3 +157,43 @@ fn builtin_catalogue_parses() {
 fn the_default_spec_is_the_default_round_burr() {
     assert_eq!(Burr::parse(DEFAULT_BURR).unwrap(), Burr::round(DEFAULT_ROUND_DIAMETER_MM).unwrap());
 }
+
+/// Every head we model is convex (the sweep's skip of a translating head's back relies on it),
+/// and its facing heights bound, from the right side, every sampled surface point whose outward
+/// normal points down (or up).
+#[test]
+fn every_head_is_convex_and_its_facing_heights_hold() {
+    for burr in every_burr() {
+        let (down_below, up_above) = burr.facing_heights().unwrap_or_else(|| panic!("{:?} has a dent", burr.shape));
+        let poly = polygon(&burr.head_profile());
+        for w in poly.windows(2) {
+            let d = w[1] - w[0];
+            if d.length() < 1e-12 {
+                continue;
+            }
+            // The chain runs counter-clockwise (tip, out, up, back to the axis): outward is right.
+            let normal_z = -d.x / d.length();
+            if normal_z < -1e-9 {
+                assert!(w[0].y.max(w[1].y) <= down_below + 1e-9, "{:?}: faces down at {} above {down_below}", burr.shape, w[0].y.max(w[1].y));
+            }
+            if normal_z > 1e-9 {
+                assert!(w[0].y.min(w[1].y) >= up_above - 1e-9, "{:?}: faces up at {} below {up_above}", burr.shape, w[0].y.min(w[1].y));
+            }
+        }
+    }
+    // A dented profile is not taken for convex.
+    let dented = Profile::new(vec![
+        Piece::Line { a: DVec2::new(0.0, 0.0), b: DVec2::new(1.0, 0.0) },
+        Piece::Line { a: DVec2::new(1.0, 0.0), b: DVec2::new(0.5, 1.0) },
+        Piece::Line { a: DVec2::new(0.5, 1.0), b: DVec2::new(1.0, 2.0) },
+        Piece::Line { a: DVec2::new(1.0, 2.0), b: DVec2::new(0.0, 2.0) },
+    ]);
+    assert!(!dented.convex);
+    let cylinder = Profile::new(vec![
+        Piece::Line { a: DVec2::new(0.0, 0.0), b: DVec2::new(1.0, 0.0) },
+        Piece::Line { a: DVec2::new(1.0, 0.0), b: DVec2::new(1.0, 2.0) },
+        Piece::Line { a: DVec2::new(1.0, 2.0), b: DVec2::new(0.0, 2.0) },
+    ]);
+    assert!(cylinder.convex);
+    assert_eq!((cylinder.facing_down_below, cylinder.facing_up_above), (0.0, 2.0), "the wall faces sideways only");
+}

@@ -229,6 +229,31 @@ impl Sweep {
             Some(h) if h.offset == 0.0 && translating && n > 0 => Some((t1 - t0).length() / n as f64),
             _ => None,
         };
+        // A convex head translating from a pose the grids hold: a voxel changes only where some
+        // later pose comes closer, and by convexity none does unless every subgradient g of the
+        // head's distance at the start has g·(motion) > 0. For a solid of revolution g's radial
+        // part points outward (convex and even in the radius), so behind the plane through the
+        // start's axis normal to the motion's part across it, only the axial part can make
+        // g·(motion) positive; and beyond the head's facing height (minus the band: the deepest
+        // voxel that can change lies that far inside) the surface nearest a voxel faces no lower
+        // (higher) than sideways. Rows skip where both hold.
+        let behind = match (start_free, burr.facing_heights()) {
+            (Some(_), Some((down_below, up_above))) => {
+                let axis = from.matrix3 * DVec3::Z;
+                let motion = t1 - t0;
+                let along = motion.dot(axis);
+                let margin = band + f64::from(DONE_SLACK) + 1e-6;
+                let height = if along < 0.0 {
+                    Some((1.0, down_below + margin))
+                } else if along > 0.0 {
+                    Some((-1.0, -(up_above - margin)))
+                } else {
+                    None
+                };
+                Some(Behind { origin: t0, across: motion - axis * along, axis, height })
+            }
+            _ => None,
+        };
         // A translating ball whose start lies within the done ball: behind the plane through the
         // start, normal to the motion, the capsule's nearest point is the start, which the done
         // ball covers, so every voxel there would come out as the cut-off. Rows skip that part.
@@ -243,6 +268,12 @@ impl Sweep {
             let z = f64::from(k) * voxel;
             for j in lo.y..=hi.y {
                 let y = f64::from(j) * voxel;
+                // Rows without material first: the cheapest test, and most of a long head's box.
+                let block_row = ((j - first_block.y) / LEAF_DIM) as usize + blocks[1] * ((k - first_block.z) / LEAF_DIM) as usize;
+                let (m_lo, m_hi) = self.material_rows[block_row];
+                if m_lo > m_hi {
+                    continue;
+                }
                 // The x-range where the head's bounding balls (grown by the cut-off) can reach,
                 // swept along the centre path (segments between consecutive centres).
                 let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
@@ -282,8 +313,6 @@ impl Sweep {
                         continue;
                     }
                 }
-                let block_row = ((j - first_block.y) / LEAF_DIM) as usize + blocks[1] * ((k - first_block.z) / LEAF_DIM) as usize;
-                let (m_lo, m_hi) = self.material_rows[block_row];
                 let i_lo = ((x_lo / voxel).floor() as i32).max(lo.x).max(m_lo);
                 let i_hi = ((x_hi / voxel).ceil() as i32).min(hi.x).min(m_hi);
                 if i_lo > i_hi {
@@ -330,6 +359,8 @@ impl Sweep {
                         }
                     }
                     None => {
+                        // Voxels (inclusive) behind the translating head: they keep the cut-off.
+                        let gap = behind.map_or((1, 0), |b| b.row_gap(y, z, voxel));
                         // Distances are 1-Lipschitz along the row: from a voxel whose lower bound
                         // lies m voxels beyond the cut-off (or, with a head done at the start
                         // pose, m voxels deeper than the band in it) the next m voxels come out
@@ -346,6 +377,10 @@ impl Sweep {
                             // The start pose first, exactly: a head done there reads it (below).
                             let mut at_start = f64::INFINITY;
                             if let Some(moves) = start_free {
+                                if (gap.0..=gap.1).contains(&i) {
+                                    n = (gap.1 - i_lo + 1) as usize;
+                                    continue;
+                                }
                                 // The grids hold the start pose's head already (to the slack):
                                 // the later sub-poses alone; the start pose's distance is at most
                                 // theirs plus how far they moved (1-Lipschitz in translation).
@@ -414,6 +449,48 @@ impl Sweep {
             }
         }
         Ok(())
+    }
+}
+
+/// Where a convex translating head's back lies (see [`Sweep::build_in`]): world points `p` with
+/// `(p − origin)·across ≤ 0` and, when `height` is `(s, level)`, `s·(p − origin)·axis ≥ level`.
+#[derive(Clone, Copy)]
+struct Behind {
+    origin: DVec3,
+    across: DVec3,
+    axis: DVec3,
+    height: Option<(f64, f64)>,
+}
+
+impl Behind {
+    /// The voxel indices (inclusive; empty when lo > hi) of the row at (y, z) that lie behind.
+    fn row_gap(&self, y: f64, z: f64, voxel: f64) -> (i32, i32) {
+        let (dy, dz) = (y - self.origin.y, z - self.origin.z);
+        // c·x + e ≤ 0 as an interval of x.
+        let half_line = |c: f64, e: f64| -> (f64, f64) {
+            if c > 0.0 {
+                (f64::NEG_INFINITY, -e / c)
+            } else if c < 0.0 {
+                (-e / c, f64::INFINITY)
+            } else if e <= 0.0 {
+                (f64::NEG_INFINITY, f64::INFINITY)
+            } else {
+                (f64::INFINITY, f64::NEG_INFINITY)
+            }
+        };
+        let a = self.across;
+        let (mut lo, mut hi) = half_line(a.x, a.y * dy + a.z * dz - a.x * self.origin.x);
+        if let Some((s, level)) = self.height {
+            let w = self.axis;
+            let (l, h) = half_line(-s * w.x, level - s * (w.y * dy + w.z * dz - w.x * self.origin.x));
+            lo = lo.max(l);
+            hi = hi.min(h);
+        }
+        if !(lo <= hi) {
+            return (1, 0);
+        }
+        // Whole voxels only, a hair inside (saturating casts keep the infinities in range).
+        ((lo / voxel + 1e-9).ceil() as i32, (hi / voxel - 1e-9).floor() as i32)
     }
 }
 
