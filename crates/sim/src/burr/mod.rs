@@ -123,7 +123,13 @@ pub struct Burr {
     head: Head,
     shank: Profile,
     bounding_radius: f64,
+    /// (height, depth inside the head) at evenly spaced points along the axis through the head,
+    /// for [`inner_capsule`](Self::inner_capsule).
+    axis_depths: Vec<(f64, f64)>,
 }
+
+/// Points along the axis where [`Burr::inner_capsule`] samples the head's depth.
+const AXIS_SAMPLES: usize = 400;
 
 impl Burr {
     pub fn round(diameter_mm: f64) -> Result<Self> {
@@ -161,7 +167,16 @@ impl Burr {
         let (z0, z1) = (0.5 * top, top + NECK_LENGTH_MM);
         let rs = shank_diameter_mm / 2.0;
         let shank = Profile::new(lines(&[(0.0, z0), (neck, z0), (neck, z1), (rs, z1), (rs, z1 + SHANK_LENGTH_MM), (0.0, z1 + SHANK_LENGTH_MM)]));
-        Ok(Burr { shape, diameter_mm, length_mm: top, shank_diameter_mm, iso: None, head, shank, bounding_radius })
+        let mut burr = Burr { shape, diameter_mm, length_mm: top, shank_diameter_mm, iso: None, head, shank, bounding_radius, axis_depths: Vec::new() };
+        let (z_lo, z_hi, _) = burr.axis_extent();
+        let (z_lo, z_hi) = if burr.ball_radius().is_some() { (0.0, 2.0 * r) } else { (z_lo, z_hi) };
+        burr.axis_depths = (0..AXIS_SAMPLES)
+            .map(|i| {
+                let z = z_lo + (z_hi - z_lo) * i as f64 / (AXIS_SAMPLES - 1) as f64;
+                (z, -burr.sdf(DVec3::new(0.0, 0.0, z)))
+            })
+            .collect();
+        Ok(burr)
     }
 
     /// A burr from a spec: a catalogue name, an ISO number (`806 314 001 524 010`), or the
@@ -209,6 +224,20 @@ impl Burr {
         match &self.head {
             Head::Ball { radius } => (p - DVec3::new(0.0, 0.0, *radius)).length() - radius,
             Head::Revolved(profile) => profile.sdf((p.x * p.x + p.y * p.y).sqrt(), p.z),
+        }
+    }
+
+    /// [`sdf`](Self::sdf) in f32 at the tool-frame points `origin + i·step` for each `out[i]`
+    /// (a row of voxels; see [`Profile::sdf_row`]).
+    pub fn sdf_row(&self, origin: glam::Vec3, step: glam::Vec3, out: &mut [f32]) {
+        match &self.head {
+            Head::Ball { radius } => {
+                let c = origin - glam::Vec3::new(0.0, 0.0, *radius as f32);
+                for (i, o) in out.iter_mut().enumerate() {
+                    *o = (c + step * i as f32).length() - *radius as f32;
+                }
+            }
+            Head::Revolved(profile) => profile.sdf_row(origin.to_array(), step.to_array(), out),
         }
     }
 
@@ -260,6 +289,37 @@ impl Burr {
             Head::Ball { radius } => (*radius, *radius, *radius),
             Head::Revolved(p) => (p.z_min, p.z_max, p.max_radius),
         }
+    }
+
+    /// A capsule about the axis (ends' heights and radius, tool frame) every point of which lies
+    /// at least `margin` mm inside the head, as large as a few tries find; None when the head is
+    /// too thin. The sweep leaves the voxels in it alone (they are deeper than any cut reads).
+    pub fn inner_capsule(&self, margin: f64) -> Option<(f64, f64, f64)> {
+        let s = &self.axis_depths;
+        let (top, deepest) = s.iter().enumerate().max_by(|a, b| a.1 .1.total_cmp(&b.1 .1)).map(|(i, p)| (i, p.1))?;
+        // The depth is 1-Lipschitz along the axis: half a sample spacing of slack between samples.
+        let half_step = s.get(1).map_or(0.0, |p| (p.0 - s[0].0) / 2.0);
+        let reach = deepest - half_step - margin;
+        if !(reach > 0.0) {
+            return None;
+        }
+        let mut best: Option<(f64, (f64, f64, f64))> = None;
+        for f in [0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0] {
+            let radius = reach * f;
+            let need = radius + margin + half_step;
+            let (mut a, mut b) = (top, top);
+            while a > 0 && s[a - 1].1 >= need {
+                a -= 1;
+            }
+            while b + 1 < s.len() && s[b + 1].1 >= need {
+                b += 1;
+            }
+            let volume = radius * radius * (s[b].0 - s[a].0 + 4.0 / 3.0 * radius);
+            if best.is_none_or(|(v, _)| volume > v) {
+                best = Some((volume, (s[a].0, s[b].0, radius)));
+            }
+        }
+        best.map(|(_, c)| c)
     }
 
     /// For a convex head, (the highest point of its surface facing down, the lowest facing up)

@@ -197,3 +197,58 @@ fn every_head_is_convex_and_its_facing_heights_hold() {
     assert!(cylinder.convex);
     assert_eq!((cylinder.facing_down_below, cylinder.facing_up_above), (0.0, 2.0), "the wall faces sideways only");
 }
+
+/// The row evaluation agrees with the f64 distance at every point of random rows through every
+/// head (to f32 rounding of coordinates of a few mm).
+#[test]
+fn rows_of_distances_match_the_pointwise_distance() {
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let mut unit = || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    };
+    let mut out = vec![0f32; 77];
+    for burr in every_burr() {
+        for _ in 0..200 {
+            let origin = DVec3::new(1.5 * unit(), 1.5 * unit(), 1.5 * unit() + burr.length_mm / 2.0);
+            let step = DVec3::new(unit(), unit(), unit()).normalize_or_zero() * 0.05;
+            burr.sdf_row(origin.as_vec3(), step.as_vec3(), &mut out);
+            for (i, got) in out.iter().enumerate() {
+                let exact = burr.sdf(origin + step * i as f64);
+                assert!((f64::from(*got) - exact).abs() < 2e-5, "{:?} point {i}: row {got} vs {exact}", burr.shape);
+            }
+        }
+    }
+}
+
+/// Every point of the inner capsule lies at least the margin inside the head (sampled densely,
+/// caps included), and the capsule is not a sliver.
+#[test]
+fn the_inner_capsule_lies_deep_inside_every_head() {
+    let margin = 0.155;
+    for burr in every_burr() {
+        let Some((za, zb, r)) = burr.inner_capsule(margin) else {
+            assert!(burr.shape == Shape::Needle || burr.shape == Shape::Wheel, "{:?}: no inner capsule", burr.shape);
+            continue;
+        };
+        assert!(r > 0.0 && zb >= za, "{:?}: {za} {zb} {r}", burr.shape);
+        let mut worst = f64::NEG_INFINITY;
+        for i in 0..=60 {
+            let z = za - r + (zb - za + 2.0 * r) * i as f64 / 60.0;
+            for j in 0..=20 {
+                for k in 0..8 {
+                    let rho = r * j as f64 / 20.0;
+                    let angle = k as f64 * std::f64::consts::TAU / 8.0;
+                    let p = DVec3::new(rho * angle.cos(), rho * angle.sin(), z);
+                    let axis = DVec3::new(0.0, 0.0, z.clamp(za, zb));
+                    if (p - axis).length() <= r {
+                        worst = worst.max(burr.sdf(p));
+                    }
+                }
+            }
+        }
+        assert!(worst <= -margin + 1e-9, "{:?}: a point of the capsule at depth {}", burr.shape, -worst);
+    }
+}

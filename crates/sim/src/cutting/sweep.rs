@@ -10,7 +10,9 @@
 //!
 //! Voxels whose lower bound lies beyond `band + 1.5 voxel` get that cut-off value without an exact
 //! evaluation; every value is therefore either exact (to the bound above) or ≥ the cut-off, which
-//! keeps the patch valid for `LevelSet::subtract_logged` (it reads one voxel past the band).
+//! keeps the patch valid for `LevelSet::subtract_logged` (it reads one voxel past the band). Other
+//! heads are evaluated a run of a row at a time ([`Burr::sdf_row`]); the runs leave out what a
+//! stroke continuing the last cannot change (see `Behind` and [`Burr::inner_capsule`]).
 use dentsim_vdb::{block_counts, DensePatch, LEAF_DIM};
 use glam::{DAffine3, DMat3, DQuat, DVec3, IVec3};
 
@@ -71,6 +73,26 @@ pub struct Sweep {
     /// row of blocks the x range (voxel index, inclusive) from the first such block to the last.
     material: Vec<u8>,
     material_rows: Vec<(i32, i32)>,
+    rows: RowScratch,
+}
+
+/// One row run's distances for a non-round head (see [`Sweep::build_in`]), voxel by voxel.
+#[derive(Default)]
+struct RowScratch {
+    /// The least over the poses evaluated, from the cut-off down.
+    best: Vec<f32>,
+    /// The start pose's distance, or a bound on it (infinite where no pose reached).
+    start: Vec<f32>,
+    /// One pose's distances.
+    pose: Vec<f32>,
+}
+
+impl RowScratch {
+    fn reserve(&mut self, voxels: usize) {
+        for v in [&mut self.best, &mut self.start, &mut self.pose] {
+            v.reserve(voxels.saturating_sub(v.len()));
+        }
+    }
 }
 
 /// Rotation part as a unit quaternion, or an error naming the pose when it is not a rotation.
@@ -100,6 +122,7 @@ impl Sweep {
         let blocks = (side as usize / LEAF_DIM as usize + 2).pow(3);
         self.material.reserve(blocks.saturating_sub(self.material.len()));
         self.material_rows.reserve(blocks.saturating_sub(self.material_rows.len()));
+        self.rows.reserve(side as usize);
         [side; 3]
     }
 
@@ -254,6 +277,14 @@ impl Sweep {
             }
             _ => None,
         };
+        // With the start free, voxels inside the start head's inner capsule lie deeper in it than
+        // the band (and its slack; a hair narrower for rounding): they keep the cut-off.
+        let inner = match start_free {
+            Some(_) => burr.inner_capsule(band + f64::from(DONE_SLACK) + 1e-5).map(|(za, zb, r)| {
+                (from.transform_point3(DVec3::new(0.0, 0.0, za)), from.transform_point3(DVec3::new(0.0, 0.0, zb)), r - 1e-6)
+            }),
+            None => None,
+        };
         // A translating ball whose start lies within the done ball: behind the plane through the
         // start, normal to the motion, the capsule's nearest point is the start, which the done
         // ball covers, so every voxel there would come out as the cut-off. Rows skip that part.
@@ -264,6 +295,8 @@ impl Sweep {
             _ => None,
         };
         let (nx, ny) = (dims.x as usize, dims.y as usize);
+        let rows = &mut self.rows;
+        rows.reserve(nx);
         for k in lo.z..=hi.z {
             let z = f64::from(k) * voxel;
             for j in lo.y..=hi.y {
@@ -359,84 +392,101 @@ impl Sweep {
                         }
                     }
                     None => {
-                        // Voxels (inclusive) behind the translating head: they keep the cut-off.
+                        // Voxels (inclusive) behind the translating head keep the cut-off; the
+                        // rest of the row is evaluated a run at a time, each pose over the part
+                        // of the run its bounding ball (grown by the cut-off) reaches.
                         let gap = behind.map_or((1, 0), |b| b.row_gap(y, z, voxel));
-                        // Distances are 1-Lipschitz along the row: from a voxel whose lower bound
-                        // lies m voxels beyond the cut-off (or, with a head done at the start
-                        // pose, m voxels deeper than the band in it) the next m voxels come out
-                        // as the cut-off too (the patch holds it already), unevaluated. What is
-                        // evaluated is then a shell about the head's surface, not its box.
-                        let mut n = 0usize;
-                        while n < out.len() {
-                            let v = &mut out[n];
-                            let i = i_lo + n as i32;
-                            let p = DVec3::new(f64::from(i) * voxel, y, z);
-                            let mut best = cutoff;
-                            // A lower bound on every sub-pose's distance (exact or its ball's).
-                            let mut lower = f64::INFINITY;
-                            // The start pose first, exactly: a head done there reads it (below).
-                            let mut at_start = f64::INFINITY;
-                            if let Some(moves) = start_free {
-                                if (gap.0..=gap.1).contains(&i) {
-                                    n = (gap.1 - i_lo + 1) as usize;
-                                    continue;
-                                }
-                                // The grids hold the start pose's head already (to the slack):
-                                // the later sub-poses alone; the start pose's distance is at most
-                                // theirs plus how far they moved (1-Lipschitz in translation).
-                                let mut start_upper = f64::INFINITY;
-                                for k in 1..self.inverse.len() {
-                                    let bound = (p - self.centres[k]).length() - rb;
-                                    if bound >= best {
-                                        lower = lower.min(bound);
-                                        continue;
-                                    }
-                                    let d = burr.sdf(self.inverse[k].transform_point3(p));
-                                    start_upper = start_upper.min(d + moves * k as f64);
-                                    lower = lower.min(d);
-                                    best = best.min(d);
-                                }
-                                let beyond = (lower - cutoff - 1e-6) / voxel;
-                                let deep = (-band - f64::from(DONE_SLACK) - 1e-6 - start_upper) / voxel;
-                                *v = if deep >= 0.0 { cutoff as f32 } else { best as f32 };
-                                let jump = beyond.max(deep);
-                                n += 1 + if jump >= 1.0 { jump.floor() as usize } else { 0 };
+                        // And with the start free, the voxels deep inside its head.
+                        let deep = inner.and_then(|(a, b, r)| line_capsule_x(y, z, a, b, r)).map_or((1, 0), |(l, h)| whole_voxels(l, h, voxel));
+                        let runs = runs_outside(i_lo, i_hi, [gap, deep]);
+                        for (a, b) in runs {
+                            if a > b {
                                 continue;
                             }
-                            for (k, (inv, c)) in self.inverse.iter().zip(&self.centres).enumerate() {
-                                let bound = (p - *c).length() - rb;
-                                if bound >= best {
-                                    lower = lower.min(bound);
+                            let len = (b - a + 1) as usize;
+                            rows.best.clear();
+                            rows.best.resize(len, cutoff as f32);
+                            // The start pose's distance (a head done there reads it), or with
+                            // the start free, an upper bound on it from the later poses.
+                            rows.start.clear();
+                            rows.start.resize(len, f32::INFINITY);
+                            let first_pose = usize::from(start_free.is_some());
+                            for (k, (inv, c)) in self.inverse.iter().zip(&self.centres).enumerate().skip(first_pose) {
+                                let d2 = (y - c.y) * (y - c.y) + (z - c.z) * (z - c.z);
+                                if d2 >= reach * reach {
                                     continue;
                                 }
-                                let d = burr.sdf(inv.transform_point3(p));
-                                if k == 0 {
-                                    at_start = d;
+                                let half = (reach * reach - d2).sqrt();
+                                let ka = (((c.x - half) / voxel).floor() as i32).max(a);
+                                let kb = (((c.x + half) / voxel).ceil() as i32).min(b);
+                                if ka > kb {
+                                    continue;
                                 }
-                                lower = lower.min(d);
-                                best = best.min(d);
+                                let (off, m) = ((ka - a) as usize, (kb - ka + 1) as usize);
+                                let origin = inv.transform_point3(DVec3::new(f64::from(ka) * voxel, y, z)).as_vec3();
+                                rows.pose.resize(m, 0.0);
+                                burr.sdf_row(origin, (inv.matrix3.x_axis * voxel).as_vec3(), &mut rows.pose[..m]);
+                                let best = &mut rows.best[off..off + m];
+                                let start = &mut rows.start[off..off + m];
+                                match start_free {
+                                    // The start pose's distance is at most a later pose's plus how
+                                    // far it moved (1-Lipschitz in translation).
+                                    Some(moves) => {
+                                        let moved = (moves * k as f64) as f32;
+                                        for ((d, bst), st) in rows.pose[..m].iter().zip(best).zip(start) {
+                                            *bst = bst.min(*d);
+                                            *st = st.min(*d + moved);
+                                        }
+                                    }
+                                    None => {
+                                        for ((d, bst), st) in rows.pose[..m].iter().zip(best).zip(start) {
+                                            *bst = bst.min(*d);
+                                            if k == 0 {
+                                                *st = *d;
+                                            }
+                                        }
+                                    }
+                                }
                             }
-                            // 1e-6 mm: room for the f32 rounding of the tests below.
-                            let beyond = (lower - cutoff - 1e-6) / voxel;
-                            let deep = match head_at_start {
-                                Some(h) if at_start.is_finite() => (-band - f64::from(DONE_SLACK) - 1e-6 - (at_start + h.offset)) / voxel,
-                                _ => f64::NEG_INFINITY,
-                            };
-                            let jump = beyond.max(deep);
-                            *v = match (done_head, head_at_start) {
+                            let out = &mut out[(a - i_lo) as usize..=(b - i_lo) as usize];
+                            let (band32, cutoff32) = (band as f32, cutoff as f32);
+                            if start_free.is_some() {
+                                // The grids hold the start pose's head (to the slack): a voxel
+                                // deeper than the band in it keeps the cut-off.
+                                let deep = (-band - f64::from(DONE_SLACK) - 1e-6) as f32;
+                                for ((v, bst), st) in out.iter_mut().zip(&rows.best).zip(&rows.start) {
+                                    *v = if *st <= deep { cutoff32 } else { *bst };
+                                }
+                                continue;
+                            }
+                            match (done_head, head_at_start) {
                                 // Skipped at sub-pose 0 only when it is beyond the cut-off or
                                 // some later pose came closer, which already beats it.
-                                (_, Some(h)) => unless_done(best as f32, (at_start.min(cutoff) + h.offset) as f32, band as f32, cutoff as f32),
+                                (_, Some(h)) => {
+                                    let offset = h.offset as f32;
+                                    for ((v, bst), st) in out.iter_mut().zip(&rows.best).zip(&rows.start) {
+                                        *v = unless_done(*bst, st.min(cutoff32) + offset, band32, cutoff32);
+                                    }
+                                }
                                 (Some(h), None) => {
-                                    let d_done = burr.sdf(h.to_tool.transform_point3(p)) + h.offset;
-                                    unless_done(best as f32, d_done as f32, band as f32, cutoff as f32)
+                                    let origin = h.to_tool.transform_point3(DVec3::new(f64::from(a) * voxel, y, z)).as_vec3();
+                                    rows.pose.resize(len, 0.0);
+                                    burr.sdf_row(origin, (h.to_tool.matrix3.x_axis * voxel).as_vec3(), &mut rows.pose[..len]);
+                                    let offset = h.offset as f32;
+                                    for ((v, bst), d) in out.iter_mut().zip(&rows.best).zip(&rows.pose) {
+                                        *v = unless_done(*bst, *d + offset, band32, cutoff32);
+                                    }
                                 }
                                 (None, _) => match done {
-                                    Some(d) => unless_done(best as f32, ((p - d.centre).length() - d.radius) as f32, band as f32, cutoff as f32),
-                                    None => best as f32,
+                                    Some(d) => {
+                                        for ((v, bst), i) in out.iter_mut().zip(&rows.best).zip(a..) {
+                                            let p = DVec3::new(f64::from(i) * voxel, y, z);
+                                            *v = unless_done(*bst, ((p - d.centre).length() - d.radius) as f32, band32, cutoff32);
+                                        }
+                                    }
+                                    None => out.copy_from_slice(&rows.best),
                                 },
-                            };
-                            n += 1 + if jump >= 1.0 { jump.floor() as usize } else { 0 };
+                            }
                         }
                     }
                 }
@@ -489,9 +539,31 @@ impl Behind {
         if !(lo <= hi) {
             return (1, 0);
         }
-        // Whole voxels only, a hair inside (saturating casts keep the infinities in range).
-        ((lo / voxel + 1e-9).ceil() as i32, (hi / voxel - 1e-9).floor() as i32)
+        whole_voxels(lo, hi, voxel)
     }
+}
+
+/// The voxel indices (inclusive) whose centres lie within [lo, hi] mm, a hair inside (saturating
+/// casts keep infinities in range).
+fn whole_voxels(lo: f64, hi: f64, voxel: f64) -> (i32, i32) {
+    ((lo / voxel + 1e-9).ceil() as i32, (hi / voxel - 1e-9).floor() as i32)
+}
+
+/// The runs (inclusive; empty ones have lo > hi) of [lo, hi] outside both `cuts` (inclusive
+/// index ranges, empty when lo > hi).
+fn runs_outside(lo: i32, hi: i32, cuts: [(i32, i32); 2]) -> [(i32, i32); 3] {
+    let mut cuts = cuts.map(|(a, b)| if a > b { (i32::MAX, i32::MAX) } else { (a, b) });
+    cuts.sort_unstable();
+    let [(a0, b0), (a1, b1)] = cuts;
+    if a0 == i32::MAX {
+        return [(lo, hi), (1, 0), (1, 0)];
+    }
+    if a1 == i32::MAX || a1 <= b0.saturating_add(1) {
+        // One cut, or two that touch: one gap.
+        let b = if a1 == i32::MAX { b0 } else { b0.max(b1) };
+        return [(lo, hi.min(a0.saturating_sub(1))), (lo.max(b.saturating_add(1)), hi), (1, 0)];
+    }
+    [(lo, hi.min(a0.saturating_sub(1))), (lo.max(b0.saturating_add(1)), hi.min(a1.saturating_sub(1))), (lo.max(b1.saturating_add(1)), hi)]
 }
 
 /// The tool's distance `d` at a voxel, or `cutoff` (no change) when the ball already cut there
@@ -583,6 +655,23 @@ fn segment_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Runs cover exactly the indices of the range outside the cuts.
+    #[test]
+    fn runs_outside_the_cuts_cover_the_rest_exactly() {
+        let cuts = [(1, 0), (3, 5), (4, 9), (7, 8), (-20, 2), (12, 40), (i32::MIN, 6), (9, i32::MAX), (0, 0), (10, 10)];
+        for c0 in cuts {
+            for c1 in cuts {
+                let runs = runs_outside(0, 10, [c0, c1]);
+                for i in -2..=12 {
+                    let kept = runs.iter().filter(|(a, b)| (*a..=*b).contains(&i)).count();
+                    let cut = [c0, c1].iter().any(|(a, b)| (*a..=*b).contains(&i));
+                    let want = usize::from((0..=10).contains(&i) && !cut);
+                    assert_eq!(kept, want, "index {i}, cuts {c0:?} {c1:?}: runs {runs:?}");
+                }
+            }
+        }
+    }
 
     /// The interval holds exactly the row's points within reach of the segment (brute force).
     #[test]
