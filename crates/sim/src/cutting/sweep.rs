@@ -297,6 +297,9 @@ impl Sweep {
         let (nx, ny) = (dims.x as usize, dims.y as usize);
         let rows = &mut self.rows;
         rows.reserve(nx);
+        // With the start free, the start pose changes nothing: rows reach as the later ones do.
+        let first_pose = usize::from(start_free.is_some());
+        let (centres, axes) = (&self.centres[first_pose..], &self.axes[first_pose.min(self.axes.len())..]);
         for k in lo.z..=hi.z {
             let z = f64::from(k) * voxel;
             for j in lo.y..=hi.y {
@@ -310,10 +313,10 @@ impl Sweep {
                 // The x-range where the head's bounding balls (grown by the cut-off) can reach,
                 // swept along the centre path (segments between consecutive centres).
                 let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                let segments = self.centres.len().saturating_sub(1).max(1);
+                let segments = centres.len().saturating_sub(1).max(1);
                 for s in 0..segments {
-                    let a = self.centres[s];
-                    let b = self.centres[(s + 1).min(self.centres.len() - 1)];
+                    let a = centres[s];
+                    let b = centres[(s + 1).min(centres.len() - 1)];
                     let d = segment_distance_2d((y, z), (a.y, a.z), (b.y, b.z));
                     if d < reach {
                         let half = (reach * reach - d * d).sqrt();
@@ -321,9 +324,9 @@ impl Sweep {
                         x_hi = x_hi.max(a.x.max(b.x) + half);
                     }
                 }
-                if !self.axes.is_empty() {
+                if !axes.is_empty() {
                     let (mut c_lo, mut c_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                    for (a, b) in &self.axes {
+                    for (a, b) in axes {
                         if let Some((l, h)) = line_capsule_x(y, z, *a, *b, axis_reach) {
                             c_lo = c_lo.min(l);
                             c_hi = c_hi.max(h);
