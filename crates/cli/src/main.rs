@@ -1,5 +1,6 @@
 //! `dentsim`: batch preparation planning and measurement from the command line.
 mod args;
+mod assess;
 mod bench;
 mod demo;
 mod phantom;
@@ -35,6 +36,8 @@ enum Command {
     Session(session::Args),
     /// Replay a session log bit for bit; write tissues, meshes, forces.csv and forces.png.
     Replay(replay::Args),
+    /// Grade a preparation: removed, over- and under-cut volumes, deviation, dentin over the pulp.
+    Assess(assess::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -46,5 +49,6 @@ fn main() -> anyhow::Result<()> {
         Command::Prepare(args) => prepare::run(&args),
         Command::Session(args) => session::run(&args),
         Command::Replay(args) => replay::run(&args),
+        Command::Assess(args) => assess::run(&args),
     }
 }

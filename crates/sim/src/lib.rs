@@ -10,6 +10,7 @@
 //! - [`session`]: the threads, log, live display, replay, outputs in a folder, force plot.
 //!
 //! The types most callers need are re-exported here.
+pub mod assess;
 pub mod burr;
 pub mod cutting;
 pub mod error;

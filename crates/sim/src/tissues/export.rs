@@ -41,12 +41,17 @@ pub fn write_model(model: &mut TissueModel, out: &Path, progress: &mut dyn FnMut
 /// tissue's properties as field data (`Stiffness` N/mm, `Damping` N·s/mm, `RemovalRate`
 /// mm³/(N·s), `Colour` RGB 0..1, `Opacity`).
 pub fn write_vtp(path: &Path, mesh: &TriMesh, tissue: &TissueProps) -> Result<()> {
+    write_vtp_with(path, mesh, tissue, &[])
+}
+
+/// [`write_vtp`] with more point arrays (name, one f32 per point).
+pub fn write_vtp_with(path: &Path, mesh: &TriMesh, tissue: &TissueProps, point_arrays: &[(&str, &[f32])]) -> Result<()> {
     let points: Vec<f32> = mesh.points.iter().flat_map(|p| p.to_array()).collect();
     let normals: Vec<f32> = mesh.normals.iter().flat_map(|p| p.to_array()).collect();
     let connectivity: Vec<i64> = mesh.triangles.iter().flatten().map(|&i| i64::from(i)).collect();
     let offsets: Vec<i64> = (1..=mesh.triangles.len() as i64).map(|i| 3 * i).collect();
     let labels = vec![i32::from(tissue.label); mesh.triangles.len()];
-    let arrays: [(&str, &str, usize, Vec<u8>); 10] = [
+    let mut arrays: Vec<(&str, &str, usize, Vec<u8>)> = vec![
         ("Stiffness", "Float64", 1, bytes(&[tissue.stiffness_n_per_mm])),
         ("Damping", "Float64", 1, bytes(&[tissue.damping_n_s_per_mm])),
         ("RemovalRate", "Float64", 1, bytes(&[tissue.removal_rate_mm3_per_n_s])),
@@ -58,6 +63,12 @@ pub fn write_vtp(path: &Path, mesh: &TriMesh, tissue: &TissueProps) -> Result<()
         ("connectivity", "Int64", 1, bytes(&connectivity)),
         ("offsets", "Int64", 1, bytes(&offsets)),
     ];
+    for (name, values) in point_arrays {
+        if values.len() != mesh.points.len() {
+            return Err(crate::error::invalid(format!("point array '{name}'"), format!("has {} values for {} points", values.len(), mesh.points.len())));
+        }
+        arrays.push((name, "Float32", 1, bytes(values)));
+    }
     let mut offset = 0usize;
     let mut tags = Vec::new();
     for (name, kind, components, data) in &arrays {
@@ -73,7 +84,7 @@ pub fn write_vtp(path: &Path, mesh: &TriMesh, tissue: &TissueProps) -> Result<()
         writeln!(w, r#"<VTKFile type="PolyData" version="1.0" byte_order="LittleEndian" header_type="UInt64">"#)?;
         writeln!(w, "<PolyData>\n<FieldData>\n{}\n</FieldData>", tags[..5].join("\n"))?;
         writeln!(w, r#"<Piece NumberOfPoints="{n_points}" NumberOfVerts="0" NumberOfLines="0" NumberOfStrips="0" NumberOfPolys="{n_polys}">"#)?;
-        writeln!(w, "<PointData Normals=\"Normals\">\n{}\n</PointData>", tags[5])?;
+        writeln!(w, "<PointData Normals=\"Normals\">\n{}\n{}\n</PointData>", tags[5], tags[10..].join("\n"))?;
         writeln!(w, "<CellData Scalars=\"Tissue\">\n{}\n</CellData>", tags[7])?;
         writeln!(w, "<Points>\n{}\n</Points>", tags[6])?;
         writeln!(w, "<Polys>\n{}\n{}\n</Polys>", tags[8], tags[9])?;

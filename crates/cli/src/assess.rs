@@ -1,0 +1,45 @@
+//! `dentsim assess`: grade a preparation against its original and a reference (logic in
+//! sim::assess).
+use std::path::PathBuf;
+
+use anyhow::Result;
+use dentsim_sim::assess::report::{assess_to_dir, ASSESSED_SURFACE, ASSESSMENT_JSON, ASSESSMENT_PNG};
+
+#[derive(clap::Args)]
+pub struct Args {
+    /// The prepared tissues (.vdb), or an output folder of prepare, session or replay.
+    prepared: PathBuf,
+    /// The tissues before the preparation (.vdb or a folder holding tissues.vdb).
+    #[arg(long)]
+    original: PathBuf,
+    /// A reference preparation of the same tooth to compare against (.vdb or folder).
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Output folder (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// Tissue table overrides (TOML), for grids without dentsim metadata.
+    #[arg(long)]
+    tissues_table: Option<PathBuf>,
+}
+
+pub fn run(args: &Args) -> Result<()> {
+    let table = crate::args::tissue_table(args.tissues_table.as_deref())?;
+    let a = assess_to_dir(&args.prepared, &args.original, args.reference.as_deref(), &table, &args.out)?;
+    for (name, t) in &a.tissues {
+        let vs = match (t.overcut_mm3, t.undercut_mm3) {
+            (Some(o), Some(u)) => format!("  overcut {o:>8.3} mm³  undercut {u:>8.3} mm³"),
+            _ => String::new(),
+        };
+        println!("{name:<8} removed {:>8.3} mm³{vs}", t.removed_mm3);
+    }
+    if let Some(d) = &a.deviation_mm {
+        println!("deviation from the reference: mean {:+.3} mm, p95 {:+.3} mm, max {:+.3} mm ({} points)", d.mean, d.p95, d.max, d.points);
+    }
+    match a.min_remaining_dentin_mm {
+        Some(d) => println!("thinnest dentin over the pulp {d:.3} mm; pulp exposed: {} ({:.3} mm²)", a.pulp_exposed, a.pulp_exposed_area_mm2),
+        None => println!("nothing cut (or no pulp): no remaining dentin to measure"),
+    }
+    println!("wrote {} ({ASSESSMENT_JSON}, {ASSESSED_SURFACE}, {ASSESSMENT_PNG})", args.out.display());
+    Ok(())
+}

@@ -1,0 +1,139 @@
+//! `dentsim assess`'s outputs: assessment.json, the prepared tooth's surface with its deviation
+//! and cut depth per point (tooth.vtp), and assessment.png (an occlusal map of the deviation, or
+//! of the cut depth without a reference, beside the table of graded criteria).
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
+
+use plotters::prelude::*;
+use plotters::style::{register_font, FontStyle};
+
+use crate::assess::{assess, Assessment, Verdict};
+use crate::error::{Error, Result};
+use crate::tissues::export::{write_vtp_with, TISSUES_NAME};
+use crate::tissues::model::TissueModel;
+use crate::tissues::table::TissueTable;
+
+pub const ASSESSMENT_JSON: &str = "assessment.json";
+pub const ASSESSMENT_PNG: &str = "assessment.png";
+pub const ASSESSED_SURFACE: &str = "tooth.vtp";
+
+/// A tissues file, or an output folder holding one (`segment`, `prepare`, `session`, `replay`).
+pub fn tissues_file(path: &Path) -> PathBuf {
+    if path.is_dir() {
+        path.join(TISSUES_NAME)
+    } else {
+        path.to_owned()
+    }
+}
+
+/// Loads the three models, assesses, and writes the outputs into `out` (created if missing).
+pub fn assess_to_dir(prepared: &Path, original: &Path, reference: Option<&Path>, table: &TissueTable, out: &Path) -> Result<Assessment> {
+    let load = |p: &Path| TissueModel::load(&tissues_file(p), table);
+    let (prepared, original) = (load(prepared)?, load(original)?);
+    let reference = reference.map(load).transpose()?;
+    let assessment = assess(&prepared, &original, reference.as_ref())?;
+    std::fs::create_dir_all(out).map_err(|e| Error::File { path: out.to_owned(), message: format!("cannot create the output folder: {e}") })?;
+    let json = serde_json::to_string_pretty(&assessment).map_err(|e| Error::File { path: out.join(ASSESSMENT_JSON), message: e.to_string() })?;
+    dentsim_atomic::write(&out.join(ASSESSMENT_JSON), |w| w.write_all(json.as_bytes()))?;
+    let s = &assessment.surface;
+    let props = table.get("enamel").cloned().unwrap_or_else(|| table.tissues[0].clone());
+    write_vtp_with(&out.join(ASSESSED_SURFACE), &s.mesh, &props, &[("DeviationMm", &s.deviation_mm), ("CutDepthMm", &s.cut_depth_mm)])?;
+    draw_report(&out.join(ASSESSMENT_PNG), &assessment, reference.is_some())?;
+    Ok(assessment)
+}
+
+/// DejaVu Sans from the system (Debian's fonts-dejavu-core), registered once; false without it
+/// (the picture is then drawn without text: the JSON carries the numbers).
+fn font_ready() -> bool {
+    static READY: OnceLock<bool> = OnceLock::new();
+    *READY.get_or_init(|| match std::fs::read("/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf") {
+        Ok(bytes) => register_font("sans-serif", FontStyle::Normal, Box::leak(bytes.into_boxed_slice())).is_ok(),
+        Err(_) => false,
+    })
+}
+
+/// Blue (−) through white (0) to red (+), saturating at ±`range`.
+fn diverging(v: f64, range: f64) -> RGBColor {
+    let t = (v / range.max(1e-9)).clamp(-1.0, 1.0);
+    let fade = |c: u8, t: f64| (255.0 + (f64::from(c) - 255.0) * t.abs()) as u8;
+    if t >= 0.0 {
+        RGBColor(fade(200, t), fade(30, t), fade(30, t))
+    } else {
+        RGBColor(fade(30, t), fade(70, t), fade(200, t))
+    }
+}
+
+fn draw_report(path: &Path, a: &Assessment, with_reference: bool) -> Result<()> {
+    let err = |m: String| Error::File { path: path.to_owned(), message: m };
+    let text = font_ready();
+    let s = &a.surface;
+    let values: Vec<f64> = if with_reference { s.deviation_mm.iter().map(|v| f64::from(*v)).collect() } else { s.cut_depth_mm.iter().map(|v| f64::from(*v)).collect() };
+    let range = values.iter().fold(0.05f64, |m, v| m.max(v.abs()));
+    let (w, h) = (1200u32, 800u32);
+    dentsim_atomic::write_via(path, |tmp| -> Result<()> {
+        let root = BitMapBackend::new(tmp, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let (map, side) = root.split_horizontally(680);
+        // The occlusal view: looking down −z, far triangles first.
+        let pts = &s.mesh.points;
+        let (lo, hi) = pts.iter().fold((glam::Vec3::splat(f32::MAX), glam::Vec3::splat(f32::MIN)), |(l, u), p| (l.min(*p), u.max(*p)));
+        let scale = 640.0 / (hi - lo).truncate().max_element().max(1e-3);
+        let at = |p: glam::Vec3| (20 + ((p.x - lo.x) * scale) as i32, 720 - ((p.y - lo.y) * scale) as i32);
+        let mut order: Vec<usize> = (0..s.mesh.triangles.len()).collect();
+        let height = |t: &[u32; 3]| t.iter().map(|i| pts[*i as usize].z).sum::<f32>();
+        order.sort_by(|a, b| height(&s.mesh.triangles[*a]).total_cmp(&height(&s.mesh.triangles[*b])));
+        for i in order {
+            let t = s.mesh.triangles[i];
+            let [p0, p1, p2] = t.map(|k| pts[k as usize]);
+            let normal = (p1 - p0).cross(p2 - p0).normalize_or_zero();
+            if normal.z <= 0.0 {
+                continue;
+            }
+            let v = t.iter().map(|k| values[*k as usize]).sum::<f64>() / 3.0;
+            // Shade by the normal so the relief shows; colour by the value where it is not 0.
+            let base = if v.abs() > 1e-3 { diverging(v, range) } else { RGBColor(215, 210, 195) };
+            let light = 0.45 + 0.55 * f64::from(normal.z);
+            let shaded = RGBColor((f64::from(base.0) * light) as u8, (f64::from(base.1) * light) as u8, (f64::from(base.2) * light) as u8);
+            map.draw(&Polygon::new(vec![at(p0), at(p1), at(p2)], shaded.filled())).map_err(|e| err(e.to_string()))?;
+        }
+        // The colour bar, then the table.
+        for k in 0..200 {
+            let v = range * (1.0 - 2.0 * f64::from(k) / 199.0);
+            side.draw(&Rectangle::new([(20, 60 + k), (60, 61 + k)], diverging(v, range).filled())).map_err(|e| err(e.to_string()))?;
+        }
+        if text {
+            let font = ("sans-serif", 16).into_font();
+            let what = if with_reference { "deviation from the reference (mm, + deeper)" } else { "depth cut below the original surface (mm)" };
+            side.draw(&Text::new(what.to_owned(), (20, 30), font.clone())).map_err(|e| err(e.to_string()))?;
+            side.draw(&Text::new(format!("{:+.2}", range), (70, 55), font.clone())).map_err(|e| err(e.to_string()))?;
+            side.draw(&Text::new("0", (70, 152), font.clone())).map_err(|e| err(e.to_string()))?;
+            side.draw(&Text::new(format!("{:+.2}", -range), (70, 250), font.clone())).map_err(|e| err(e.to_string()))?;
+            let mut y = 300;
+            let mut line = |s: String, colour: RGBColor| -> Result<()> {
+                side.draw(&Text::new(s, (20, y), font.clone().color(&colour))).map_err(|e| err(e.to_string()))?;
+                y += 26;
+                Ok(())
+            };
+            for (name, t) in &a.tissues {
+                let mut s = format!("{name}: removed {:.3} mm³", t.removed_mm3);
+                if let (Some(o), Some(u)) = (t.overcut_mm3, t.undercut_mm3) {
+                    s += &format!(", over {o:.3}, under {u:.3}");
+                }
+                line(s, BLACK)?;
+            }
+            if let Some(d) = &a.deviation_mm {
+                line(format!("deviation mean {:+.3}, p95 {:+.3}, max {:+.3} mm", d.mean, d.p95, d.max), BLACK)?;
+            }
+            line(format!("pulp exposed: {} ({:.2} mm²)", if a.pulp_exposed { "yes" } else { "no" }, a.pulp_exposed_area_mm2), if a.pulp_exposed { RED } else { BLACK })?;
+            for g in &a.grades {
+                let colour = match g.verdict {
+                    Verdict::Ideal => RGBColor(0, 130, 0),
+                    Verdict::Acceptable => RGBColor(200, 130, 0),
+                    Verdict::OutOfRange => RED,
+                };
+                line(format!("{}: {:.2} {} ({})", g.criterion, g.value, g.unit, g.range), colour)?;
+            }
+        }
+        root.present().map_err(|e| err(e.to_string()))
+    })
+}
