@@ -510,6 +510,41 @@ pub fn mesh_surface(tooth: &BenchTooth, cfg: BenchConfig) -> Result<BenchRow> {
     }
 }
 
+/// `dentsim assess` on the bench molar at its voxel size: a cavity 1.2 mm wide cut along the
+/// crown 0.9 mm deep against a reference cut 0.5 mm deep (the whole assessment: volumes by CSG,
+/// surfaces, deviation, dentin over the pulp). Peer: OpenVDB's `volumeToMesh` of every tissue of
+/// the three models, the least any mesh-based assessment does.
+pub fn assess(tooth: &BenchTooth, cfg: BenchConfig) -> Result<BenchRow> {
+    let burr = Burr::parse("cylinder_flat_012")?;
+    let groove = |depth: f64| -> Result<TissueModel> {
+        let mut m = tooth.model.clone();
+        let at = |x: f64| DAffine3::from_translation(tooth.occlusal + DVec3::new(x, 0.0, -depth));
+        Cutter::default().cut(&mut m, &burr, at(-1.5), at(1.5))?;
+        Ok(m)
+    };
+    let (prepared, reference) = (groove(0.9)?, groove(0.5)?);
+    let reps = (cfg.repetitions / 50).max(3);
+    let mut failure = None;
+    let ours = Timings::measure(reps, 1, |_| {
+        if let Err(e) = dentsim_sim::assess::assess(&prepared, &tooth.model, Some(&reference)) {
+            failure.get_or_insert(e);
+        }
+    });
+    let mut triangles = 0u64;
+    let peer = Timings::measure(reps, 1, |_| {
+        for m in [&prepared, &tooth.model, &reference] {
+            for t in &m.tissues {
+                triangles += t.grid.peer_full_mesh();
+            }
+        }
+    });
+    std::hint::black_box(triangles);
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(BenchRow::new("assess", &ours, "volumeToMesh of every tissue of the three models", &peer)),
+    }
+}
+
 /// Every row, in a fixed order; `progress(row name)` is called before each.
 pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<BenchRow>> {
     progress("building the tooth");
@@ -531,6 +566,8 @@ pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<B
     rows.push(mesh_surface(model, cfg)?);
     progress("force_query");
     rows.push(force_query(model, 256, cfg.repetitions * 5)?);
+    progress("assess");
+    rows.push(assess(model, cfg)?);
     progress("loop_period");
     rows.extend(loop_period(model, cfg.session_seconds)?);
     Ok(rows)

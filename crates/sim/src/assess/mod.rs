@@ -133,13 +133,6 @@ impl<'a> Tooth<'a> {
     }
 }
 
-/// Volume of `a` minus `b` (both level sets of one voxel size).
-fn difference_volume(a: &LevelSet, b: &LevelSet) -> Result<f64> {
-    let mut both = a.clone();
-    both.csg_intersection(b)?;
-    Ok((a.volume() - both.volume()).max(0.0))
-}
-
 /// Assesses `prepared` against the `original` it was cut from and, when given, a `reference`
 /// preparation of the same tooth. The three must share a voxel size and tissue names.
 pub fn assess(prepared: &TissueModel, original: &TissueModel, reference: Option<&TissueModel>) -> Result<Assessment> {
@@ -156,14 +149,19 @@ pub fn assess(prepared: &TissueModel, original: &TissueModel, reference: Option<
     for t in &prepared.tissues {
         let name = &t.props.name;
         let before = original.get(name).ok_or_else(|| invalid("original model", format!("has no tissue '{name}' (the prepared model has)")))?;
+        let here = t.grid.volume();
+        // What both keep, once: over-cut is the reference's material less it, under-cut ours.
         let (overcut, undercut) = match reference {
             Some(r) => {
                 let rt = r.get(name).ok_or_else(|| invalid("reference model", format!("has no tissue '{name}' (the prepared model has)")))?;
-                (Some(difference_volume(&rt.grid, &t.grid)?), Some(difference_volume(&t.grid, &rt.grid)?))
+                let mut both = t.grid.clone();
+                both.csg_intersection(&rt.grid)?;
+                let kept = both.volume();
+                (Some((rt.grid.volume() - kept).max(0.0)), Some((here - kept).max(0.0)))
             }
             None => (None, None),
         };
-        tissues.insert(name.clone(), TissueFigures { removed_mm3: before.grid.volume() - t.grid.volume(), overcut_mm3: overcut, undercut_mm3: undercut });
+        tissues.insert(name.clone(), TissueFigures { removed_mm3: before.grid.volume() - here, overcut_mm3: overcut, undercut_mm3: undercut });
     }
     let prepared_tooth = Tooth::of(prepared, "prepared model")?;
     let original_tooth = Tooth::of(original, "original model")?;
