@@ -523,7 +523,8 @@ pub fn assess(tooth: &BenchTooth, cfg: BenchConfig) -> Result<BenchRow> {
         Ok(m)
     };
     let (prepared, reference) = (groove(0.9)?, groove(0.5)?);
-    let reps = (cfg.repetitions / 50).max(3);
+    // Seconds a call: one in a quick run, a few in a full one.
+    let reps = (cfg.repetitions / 50).clamp(1, 5);
     let mut failure = None;
     let ours = Timings::measure(reps, 1, |_| {
         if let Err(e) = dentsim_sim::assess::assess(&prepared, &tooth.model, Some(&reference)) {

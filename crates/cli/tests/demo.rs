@@ -81,7 +81,7 @@ fn bench_quick_prints_every_row_as_json() {
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let rows: serde_json::Value = serde_json::from_slice(&run.stdout).unwrap();
     let rows = rows.as_array().unwrap();
-    for expected in ["sdf_sample_near", "sdf_sample_random", "cut_stroke", "force_query"] {
+    for expected in ["sdf_sample_near", "sdf_sample_random", "cut_stroke", "force_query", "assess"] {
         let row = rows.iter().find(|r| r["name"] == expected).unwrap_or_else(|| panic!("{expected}"));
         for key in ["ours_median_us", "ours_p99_us", "peer_median_us", "ratio"] {
             assert!(number(row, key) > 0.0, "{expected}.{key}");
