@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use anyhow::Result;
+use dentsim_sim::assess::Kind;
 use dentsim_sim::assess::report::{assess_to_dir, ASSESSED_SURFACE, ASSESSMENT_JSON, ASSESSMENT_PNG};
 
 #[derive(clap::Args)]
@@ -18,14 +19,31 @@ pub struct Args {
     /// Output folder (created if missing).
     #[arg(long)]
     out: PathBuf,
+    /// What was prepared: a cavity, or a crown (then taper, reductions, margin, undercut).
+    #[arg(long, value_enum, default_value = "cavity")]
+    kind: PrepKind,
+    /// A crown's path of insertion X,Y,Z (default: the tooth's long axis, toward the cut).
+    #[arg(long, allow_hyphen_values = true, value_parser = crate::args::parse_xyz)]
+    axis: Option<[f64; 3]>,
     /// Tissue table overrides (TOML), for grids without dentsim metadata.
     #[arg(long)]
     tissues_table: Option<PathBuf>,
 }
 
+#[derive(Clone, Copy, clap::ValueEnum)]
+pub enum PrepKind {
+    Cavity,
+    Crown,
+}
+
 pub fn run(args: &Args) -> Result<()> {
     let table = crate::args::tissue_table(args.tissues_table.as_deref())?;
-    let a = assess_to_dir(&args.prepared, &args.original, args.reference.as_deref(), &table, &args.out)?;
+    let kind = match (args.kind, args.axis) {
+        (PrepKind::Cavity, None) => Kind::Cavity,
+        (PrepKind::Cavity, Some(_)) => anyhow::bail!("--axis: a path of insertion is for --kind crown"),
+        (PrepKind::Crown, axis) => Kind::Crown { axis: axis.map(glam::DVec3::from_array) },
+    };
+    let a = assess_to_dir(&args.prepared, &args.original, args.reference.as_deref(), kind, &table, &args.out)?;
     for (name, t) in &a.tissues {
         let vs = match (t.overcut_mm3, t.undercut_mm3) {
             (Some(o), Some(u)) => format!("  overcut {o:>8.3} mm³  undercut {u:>8.3} mm³"),
@@ -39,6 +57,12 @@ pub fn run(args: &Args) -> Result<()> {
     match a.min_remaining_dentin_mm {
         Some(d) => println!("thinnest dentin over the pulp {d:.3} mm; pulp exposed: {} ({:.3} mm²)", a.pulp_exposed, a.pulp_exposed_area_mm2),
         None => println!("nothing cut (or no pulp): no remaining dentin to measure"),
+    }
+    if let Some(c) = &a.crown {
+        println!(
+            "crown: taper {:.1}°, occlusal reduction {:.2} mm, axial {:.2} mm (min {:.2}), margin {:.2} mm, height/width {:.2}, undercut {}",
+            c.taper_deg, c.occlusal_reduction_mm, c.axial_reduction_mean_mm, c.axial_reduction_min_mm, c.margin_width_mm, c.height_to_width, c.undercut
+        );
     }
     println!("wrote {} ({ASSESSMENT_JSON}, {ASSESSED_SURFACE}, {ASSESSMENT_PNG})", args.out.display());
     Ok(())

@@ -5,6 +5,7 @@
 //!
 //! Volumes come from the level sets (their CSG); distances from the meshed surfaces, exact to
 //! the triangles ([`nearest`]), since a level set's band ends a few voxels from its surface.
+pub mod crown;
 pub mod nearest;
 pub mod report;
 
@@ -15,7 +16,17 @@ use serde::Serialize;
 
 use crate::error::{invalid, Result};
 use crate::tissues::{surface, TissueModel};
+use crown::CrownFigures;
 use nearest::NearestSurface;
+
+/// What kind of preparation is assessed: a cavity (the default), or a crown preparation with its
+/// path of insertion (default: the tooth's long axis, turned toward the cut).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Kind {
+    #[default]
+    Cavity,
+    Crown { axis: Option<glam::DVec3> },
+}
 
 /// The tissues that make up the tooth whose outer surface is prepared.
 pub const TOOTH_TISSUES: [&str; 4] = ["enamel", "dentin", "pulp", "caries"];
@@ -76,6 +87,9 @@ pub struct Assessment {
     pub min_remaining_dentin_mm: Option<f64>,
     pub pulp_exposed: bool,
     pub pulp_exposed_area_mm2: f64,
+    /// A crown preparation's form (`Kind::Crown`; None when no axial wall was cut).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub crown: Option<CrownFigures>,
     /// Points of the prepared surface that the preparation cut (inside the original tooth).
     pub cut_surface_points: usize,
     pub grades: Vec<Grade>,
@@ -136,6 +150,11 @@ impl<'a> Tooth<'a> {
 /// Assesses `prepared` against the `original` it was cut from and, when given, a `reference`
 /// preparation of the same tooth. The three must share a voxel size and tissue names.
 pub fn assess(prepared: &TissueModel, original: &TissueModel, reference: Option<&TissueModel>) -> Result<Assessment> {
+    assess_as(prepared, original, reference, Kind::Cavity)
+}
+
+/// [`assess`] a preparation of a given [`Kind`].
+pub fn assess_as(prepared: &TissueModel, original: &TissueModel, reference: Option<&TissueModel>, kind: Kind) -> Result<Assessment> {
     let h = prepared.voxel_size().ok_or_else(|| invalid("prepared model", "has no tissues"))?;
     for (what, m) in [("original model", Some(original)), ("reference model", reference)] {
         if let Some(m) = m {
@@ -166,7 +185,8 @@ pub fn assess(prepared: &TissueModel, original: &TissueModel, reference: Option<
     let prepared_tooth = Tooth::of(prepared, "prepared model")?;
     let original_tooth = Tooth::of(original, "original model")?;
     let reference_tooth = reference.map(|r| Tooth::of(r, "reference model")).transpose()?;
-    let mesh = drop_unused_points(prepared_tooth.mesh);
+    let mut prepared_tooth_readers = prepared_tooth.readers();
+    let mesh = drop_unused_points(prepared_tooth.mesh.clone());
     let points: Vec<glam::DVec3> = mesh.points.iter().map(|p| p.as_dvec3()).collect();
     // Tolerance for "on the original surface": meshing puts vertices within a small fraction of
     // a voxel of the zero level; a quarter voxel is far above that and far below a cut.
@@ -206,7 +226,11 @@ pub fn assess(prepared: &TissueModel, original: &TissueModel, reference: Option<
         // Inside the pulp the grid's sign says so (a band value or an inside tile).
         let mut reader = pulp.grid.reader();
         let inside: Vec<f64> = points.iter().map(|p| f64::from(reader.value(*p))).collect();
-        for t in &mesh.triangles {
+        // Only a cut that took pulp opens it (a voxel's worth, far above rounding): where the
+        // pulp's own surface turns a sharp corner its mesh cuts inside it, and those facets are
+        // no opening.
+        let pulp_lost = tissues.get("pulp").is_some_and(|t| t.removed_mm3 > h * h * h);
+        for t in mesh.triangles.iter().filter(|_| pulp_lost) {
             let [a, b, c] = t.map(|i| i as usize);
             if inside[a] + inside[b] + inside[c] < 0.0 {
                 exposed_area += 0.5 * (points[b] - points[a]).cross(points[c] - points[a]).length();
@@ -222,7 +246,26 @@ pub fn assess(prepared: &TissueModel, original: &TissueModel, reference: Option<
         }
     }
     let pulp_exposed = exposed_area > 0.0;
+    let crown = match kind {
+        Kind::Cavity => None,
+        Kind::Crown { axis } => {
+            let axis = match axis {
+                Some(a) if a.is_finite() && a.length() > 0.0 => a,
+                Some(a) => return Err(invalid("path of insertion", format!("{a} is not a direction"))),
+                None => {
+                    let cut_points: Vec<glam::DVec3> = points.iter().zip(&cut).filter(|(_, c)| **c).map(|(p, _)| *p).collect();
+                    let toward = cut_points.iter().sum::<glam::DVec3>() / cut_points.len().max(1) as f64;
+                    let all: Vec<glam::DVec3> = original_tooth.mesh.points.iter().map(|p| p.as_dvec3()).collect();
+                    crown::long_axis(&all, toward)
+                }
+            };
+            crown::measure(&mesh, &cut, axis, h, &mut original_readers, &mut prepared_tooth_readers, Tooth::value)
+        }
+    };
     let mut grades = Vec::new();
+    if let Some(c) = &crown {
+        grades.extend(crown_grades(c));
+    }
     if let Some(d) = min_dentin {
         grades.push(Grade {
             criterion: "remaining dentin over the pulp".into(),
@@ -238,7 +281,7 @@ pub fn assess(prepared: &TissueModel, original: &TissueModel, reference: Option<
         cut_depth_mm: cut_depth.iter().map(|d| *d as f32).collect(),
         mesh,
     };
-    Ok(Assessment { tissues, deviation_mm, min_remaining_dentin_mm: min_dentin, pulp_exposed, pulp_exposed_area_mm2: exposed_area, cut_surface_points, grades, surface })
+    Ok(Assessment { tissues, deviation_mm, min_remaining_dentin_mm: min_dentin, pulp_exposed, pulp_exposed_area_mm2: exposed_area, crown, cut_surface_points, grades, surface })
 }
 
 /// The mesh with only the points its triangles use, re-indexed.
@@ -260,6 +303,32 @@ fn drop_unused_points(mesh: TriMesh) -> TriMesh {
         out.triangles.push(tri);
     }
     out
+}
+
+/// A crown preparation's figures against docs/REFERENCE.md ("Preparation assessment"): within
+/// `ideal` is ideal, within `acceptable` acceptable, else out of range.
+fn crown_grades(c: &CrownFigures) -> Vec<Grade> {
+    let grade = |criterion: &str, value: f64, unit: &str, ideal: (f64, f64), acceptable: (f64, f64), source: &str| {
+        let within = |(lo, hi): (f64, f64)| value >= lo && value <= hi;
+        let show = |(lo, hi): (f64, f64)| if hi.is_infinite() { format!(">= {lo}") } else { format!("{lo}–{hi}") };
+        Grade {
+            criterion: criterion.into(),
+            value,
+            unit: unit.into(),
+            range: format!("ideal {}, acceptable {}", show(ideal), show(acceptable)),
+            verdict: if within(ideal) { Verdict::Ideal } else if within(acceptable) { Verdict::Acceptable } else { Verdict::OutOfRange },
+            source: source.into(),
+        }
+    };
+    vec![
+        grade("total occlusal convergence", c.taper_deg, "deg", (4.0, 14.0), (4.0, 20.0), "Rafeek 2010 (ideal); Goodacre 2001, J Prosthet Dent (acceptable 10–20)"),
+        grade("occlusal reduction", c.occlusal_reduction_mm, "mm", (1.5, 2.0), (1.0, 2.5), "REFERENCE.md: 1.5–2 mm; prepCheck flags < 1 mm"),
+        grade("axial reduction (mean)", c.axial_reduction_mean_mm, "mm", (1.0, 1.5), (0.5, 2.0), "REFERENCE.md: 1.2–1.5 buccal, 0.5–0.7 palatal; prepCheck flags > 2 mm"),
+        grade("margin width", c.margin_width_mm, "mm", (1.0, 1.5), (0.5, 2.0), "REFERENCE.md: 1–1.5 mm recommended"),
+        grade("undercut area", c.undercut_area_mm2, "mm²", (0.0, 0.05), (0.0, 0.05), "REFERENCE.md: no undercut along the path of insertion"),
+        grade("height", c.height_mm, "mm", (4.0, f64::INFINITY), (3.0, f64::INFINITY), "REFERENCE.md: ≥ 4 mm on molars, 3 mm elsewhere"),
+        grade("height / width", c.height_to_width, "", (0.4, f64::INFINITY), (0.4, f64::INFINITY), "REFERENCE.md: ≥ 0.4"),
+    ]
 }
 
 fn deviation_stats(values: &mut [f64]) -> Deviation {

@@ -7,7 +7,7 @@ use std::sync::OnceLock;
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
 
-use crate::assess::{assess, Assessment, Verdict};
+use crate::assess::{assess_as, Assessment, Kind, Verdict};
 use crate::error::{Error, Result};
 use crate::tissues::export::{write_vtp_with, TISSUES_NAME};
 use crate::tissues::model::TissueModel;
@@ -27,11 +27,11 @@ pub fn tissues_file(path: &Path) -> PathBuf {
 }
 
 /// Loads the three models, assesses, and writes the outputs into `out` (created if missing).
-pub fn assess_to_dir(prepared: &Path, original: &Path, reference: Option<&Path>, table: &TissueTable, out: &Path) -> Result<Assessment> {
+pub fn assess_to_dir(prepared: &Path, original: &Path, reference: Option<&Path>, kind: Kind, table: &TissueTable, out: &Path) -> Result<Assessment> {
     let load = |p: &Path| TissueModel::load(&tissues_file(p), table);
     let (prepared, original) = (load(prepared)?, load(original)?);
     let reference = reference.map(load).transpose()?;
-    let assessment = assess(&prepared, &original, reference.as_ref())?;
+    let assessment = assess_as(&prepared, &original, reference.as_ref(), kind)?;
     std::fs::create_dir_all(out).map_err(|e| Error::File { path: out.to_owned(), message: format!("cannot create the output folder: {e}") })?;
     let json = serde_json::to_string_pretty(&assessment).map_err(|e| Error::File { path: out.join(ASSESSMENT_JSON), message: e.to_string() })?;
     dentsim_atomic::write(&out.join(ASSESSMENT_JSON), |w| w.write_all(json.as_bytes()))?;
@@ -125,6 +125,9 @@ fn draw_report(path: &Path, a: &Assessment, with_reference: bool) -> Result<()> 
                 line(format!("deviation mean {:+.3}, p95 {:+.3}, max {:+.3} mm", d.mean, d.p95, d.max), BLACK)?;
             }
             line(format!("pulp exposed: {} ({:.2} mm²)", if a.pulp_exposed { "yes" } else { "no" }, a.pulp_exposed_area_mm2), if a.pulp_exposed { RED } else { BLACK })?;
+            if let Some(c) = &a.crown {
+                line(format!("crown: undercut {} ({:.2} mm²), axial reduction min {:.2} mm", if c.undercut { "yes" } else { "no" }, c.undercut_area_mm2, c.axial_reduction_min_mm), if c.undercut { RED } else { BLACK })?;
+            }
             for g in &a.grades {
                 let colour = match g.verdict {
                     Verdict::Ideal => RGBColor(0, 130, 0),

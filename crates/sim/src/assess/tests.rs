@@ -124,3 +124,81 @@ fn models_of_other_voxel_sizes_are_refused_naming_the_model() {
     let err = assess(&original, &other, None).unwrap_err().to_string();
     assert!(err.contains("original model") && err.contains("voxel size"), "{err}");
 }
+
+/// A cylinder tooth (radius 3, z from −6 to 4) prepared for a crown: everything above the margin
+/// plane z = −1 cut down to a frustum of the given half-angle standing on a 1 mm shoulder, its top 1.5 mm
+/// below the original occlusal surface.
+fn crown_models(half_angle_deg: f64) -> (TissueModel, TissueModel) {
+    const R: f64 = 3.0;
+    const MARGIN: f64 = -1.0;
+    const TOP: f64 = 2.5;
+    let r0 = R - 1.0;
+    let r1 = r0 - (TOP - MARGIN) * half_angle_deg.to_radians().tan();
+    let cylinder = |p: DVec3, r: f64, z0: f64, z1: f64| {
+        let q = glam::DVec2::new(p.truncate().length() - r, (p.z - (z0 + z1) / 2.0).abs() - (z1 - z0) / 2.0);
+        q.max(glam::DVec2::ZERO).length() + q.max_element().min(0.0)
+    };
+    // The kept region (below the margin plane, or inside the frustum) as an exact signed
+    // distance, in the (radius, z) half-plane: outside it, the distance to the frustum or the
+    // plane; inside, to the part of the boundary that borders the cut-away region (the plane
+    // outside the frustum's base, the frustum's flank and top).
+    let segment = |q: glam::DVec2, a: glam::DVec2, b: glam::DVec2| {
+        let ab = b - a;
+        (q - a - ab * ((q - a).dot(ab) / ab.length_squared()).clamp(0.0, 1.0)).length()
+    };
+    let keep = move |p: DVec3| {
+        let q = glam::DVec2::new(p.truncate().length(), p.z);
+        let (base, rim, axis_top) = (glam::DVec2::new(r0, MARGIN), glam::DVec2::new(r1, TOP), glam::DVec2::new(0.0, TOP));
+        let flank = segment(q, base, rim).min(segment(q, rim, axis_top));
+        // Inside the frustum: left of the flank, below the top, above the base.
+        let inside_frustum = q.y >= MARGIN && q.y <= TOP && (rim - base).perp_dot(q - base) >= 0.0;
+        let plane = segment(q, base, glam::DVec2::new(1e3, MARGIN));
+        if q.y < MARGIN {
+            -plane
+        } else if inside_frustum {
+            -flank
+        } else {
+            flank.min(plane)
+        }
+    };
+    let build = |prepared: bool| {
+        let g = |f: &dyn Fn(DVec3) -> f64| LevelSet::from_sdf(H, 3.0, DVec3::new(-3.5, -3.5, -6.5), DVec3::new(3.5, 3.5, 4.5), |p| if prepared { f(p).max(keep(p)) } else { f(p) }).unwrap();
+        let table = TissueTable::default();
+        let mut m = TissueModel::new("cylinder tooth", None);
+        m.push(table.get("enamel").unwrap().clone(), g(&|p| cylinder(p, R, -6.0, 4.0).max(-cylinder(p, 2.2, -5.6, 3.0)))).unwrap();
+        m.push(table.get("dentin").unwrap().clone(), g(&|p| cylinder(p, 2.2, -5.6, 3.0).max(-cylinder(p, 0.8, -5.0, 0.0)))).unwrap();
+        m.push(table.get("pulp").unwrap().clone(), g(&|p| cylinder(p, 0.8, -5.0, 0.0))).unwrap();
+        m
+    };
+    (build(true), build(false))
+}
+
+#[test]
+fn a_crown_preparation_measures_its_taper_reductions_and_margin() {
+    let (prepared, original) = crown_models(6.0);
+    for axis in [Some(DVec3::Z), None] {
+        let a = assess_as(&prepared, &original, None, Kind::Crown { axis }).unwrap();
+        let c = a.crown.clone().unwrap_or_else(|| panic!("no crown figures with axis {axis:?}"));
+        assert!(DVec3::from_array(c.axis).dot(DVec3::Z) > 0.999, "{c:?}");
+        close(c.taper_deg, 12.0, 0.5, "total occlusal convergence");
+        close(c.occlusal_reduction_mm, 1.5, 0.05, "occlusal reduction");
+        let tan = 6f64.to_radians().tan();
+        close(c.axial_reduction_mean_mm, 1.0 + tan * 3.5 / 2.0, 0.05, "mean axial reduction");
+        close(c.axial_reduction_min_mm, 1.0, 0.05, "least axial reduction");
+        close(c.margin_width_mm, 1.0, 0.05, "margin width");
+        close(c.height_mm, 3.5, 0.05, "height");
+        close(c.width_mm, 4.0, 0.1, "width at the margin");
+        assert!(!c.undercut, "{c:?}");
+        let taper = a.grades.iter().find(|g| g.criterion == "total occlusal convergence").unwrap();
+        assert_eq!(taper.verdict, Verdict::Ideal);
+        assert!(!a.pulp_exposed, "{:?} {}", a.tissues, a.pulp_exposed_area_mm2);
+    }
+}
+
+#[test]
+fn walls_that_flare_toward_the_occlusal_end_are_an_undercut() {
+    let (prepared, original) = crown_models(-4.0);
+    let c = assess_as(&prepared, &original, None, Kind::Crown { axis: Some(DVec3::Z) }).unwrap().crown.unwrap();
+    assert!(c.undercut && c.undercut_area_mm2 > 10.0, "{c:?}");
+    close(c.taper_deg, -8.0, 0.5, "total occlusal convergence");
+}
