@@ -21,7 +21,8 @@ fn main() {
     let burr = Burr::parse(&std::env::var("BURR").unwrap_or_else(|_| "round:1".into())).unwrap();
     let tip = |i| bench_stroke_tip(tooth.occlusal, i);
     let rounds = 4;
-    let n = 400;
+    // STROKES=N: how many ticks (instruction counts of two runs differ by the strokes alone).
+    let n = std::env::var("STROKES").ok().and_then(|s| s.parse().ok()).unwrap_or(400);
     let tissues = tooth.model.tissues.len();
     let mut sweep_t = vec![f64::INFINITY; n];
     let mut sub_t = vec![vec![f64::INFINITY; n]; tissues];

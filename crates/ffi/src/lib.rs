@@ -104,6 +104,38 @@ mod bridge {
         path_csv: String,
     }
 
+    /// What "Dental Preparation Assessment" grades: tissue files (.vdb, or folders holding
+    /// tissues.vdb), the reference optional (empty), a crown's path of insertion optional.
+    struct AssessmentParams {
+        prepared_path: String,
+        original_path: String,
+        reference_path: String,
+        crown: bool,
+        use_axis: bool,
+        axis: [f64; 3],
+    }
+
+    /// One line of the assessment's table; `verdict` empty for an ungraded figure.
+    struct AssessmentRow {
+        criterion: String,
+        value: f64,
+        unit: String,
+        range: String,
+        verdict: String,
+        source: String,
+    }
+
+    /// The prepared tooth's surface with its deviation from the reference (0 without one) and
+    /// the depth cut below the original surface per point, the table, and assessment.json's text.
+    struct AssessmentResult {
+        points: Vec<f32>,
+        triangles: Vec<u32>,
+        deviation_mm: Vec<f32>,
+        cut_depth_mm: Vec<f32>,
+        rows: Vec<AssessmentRow>,
+        json: String,
+    }
+
     extern "Rust" {
         /// Cuts the tool path into the tissues; the polyline arrays (x,y,z per point; w,x,y,z
         /// per point; optional time, rpm, cut: empty when absent) are used when
@@ -134,10 +166,11 @@ mod bridge {
         fn read_tissues(path: &str) -> Result<Vec<TissueSurface>>;
         fn tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Vec<TissueSurface>>;
         fn version() -> String;
+        fn assess_preparation(params: &AssessmentParams) -> Result<AssessmentResult>;
     }
 }
 
-pub use bridge::{ImageGeometry, PreparationParams, TissuesFromScanParams, SessionParams, SessionState, StrokeParams, TissueSurface};
+pub use bridge::{AssessmentParams, AssessmentResult, AssessmentRow, ImageGeometry, PreparationParams, TissuesFromScanParams, SessionParams, SessionState, StrokeParams, TissueSurface};
 
 /// Runs `f`, turning a panic into an error so it never unwinds into C++.
 fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
@@ -178,6 +211,44 @@ pub fn read_tissues(path: &str) -> Result<Vec<TissueSurface>, String> {
         let model = dentsim_sim::tissues::model::TissueModel::load(std::path::Path::new(path), &TissueTable::default())
             .map_err(|e| e.to_string())?;
         unchanged_surfaces(&model)
+    })
+}
+
+/// Grades a preparation against its original and an optional reference (see `dentsim assess`).
+pub fn assess_preparation(params: &AssessmentParams) -> Result<AssessmentResult, String> {
+    use dentsim_sim::assess::report::tissues_file;
+    use dentsim_sim::assess::{assess_as, Kind};
+    guarded("assess preparation", || {
+        let load = |what: &str, p: &str| {
+            if p.trim().is_empty() {
+                return Err(format!("{what}: no file given"));
+            }
+            dentsim_sim::tissues::model::TissueModel::load(&tissues_file(std::path::Path::new(p)), &TissueTable::default()).map_err(|e| format!("{what}: {e}"))
+        };
+        let prepared = load("Prepared Tissues", &params.prepared_path)?;
+        let original = load("Original Tissues", &params.original_path)?;
+        let reference = if params.reference_path.trim().is_empty() { None } else { Some(load("Reference Preparation", &params.reference_path)?) };
+        let kind = match (params.crown, params.use_axis) {
+            (false, _) => Kind::Cavity,
+            (true, false) => Kind::Crown { axis: None },
+            (true, true) => Kind::Crown { axis: Some(glam::DVec3::from_array(params.axis)) },
+        };
+        let a = assess_as(&prepared, &original, reference.as_ref(), kind).map_err(|e| e.to_string())?;
+        let json = serde_json::to_string_pretty(&a).map_err(|e| e.to_string())?;
+        let rows = a
+            .rows()
+            .into_iter()
+            .map(|r| AssessmentRow { criterion: r.criterion, value: r.value, unit: r.unit, range: r.range, verdict: r.verdict, source: r.source })
+            .collect();
+        let s = a.surface;
+        Ok(AssessmentResult {
+            points: s.mesh.points.iter().flat_map(|p| p.to_array()).collect(),
+            triangles: s.mesh.triangles.iter().flatten().copied().collect(),
+            deviation_mm: s.deviation_mm,
+            cut_depth_mm: s.cut_depth_mm,
+            rows,
+            json,
+        })
     })
 }
 
@@ -363,6 +434,20 @@ fn version() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn assessing_a_missing_file_names_the_property() {
+        let params = AssessmentParams {
+            prepared_path: "/nonexistent/prepared.vdb".into(),
+            original_path: String::new(),
+            reference_path: String::new(),
+            crown: false,
+            use_axis: false,
+            axis: [0.0; 3],
+        };
+        let err = assess_preparation(&params).err().unwrap();
+        assert!(err.contains("Prepared Tissues") && err.contains("prepared.vdb"), "{err}");
+    }
 
     #[test]
     fn bad_parameters_come_back_as_errors() {

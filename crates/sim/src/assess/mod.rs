@@ -106,6 +106,53 @@ pub struct AssessedSurface {
     pub cut_depth_mm: Vec<f32>,
 }
 
+/// One line of an assessment's table: a figure, graded when it has a range.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    pub criterion: String,
+    pub value: f64,
+    pub unit: String,
+    pub range: String,
+    /// "ideal", "acceptable", "out_of_range", or empty for an ungraded figure.
+    pub verdict: String,
+    pub source: String,
+}
+
+impl Assessment {
+    /// Every figure as a table (a ParaView table, a report): the volumes, the deviation, the
+    /// pulp, the crown's form, then the grades.
+    pub fn rows(&self) -> Vec<Row> {
+        let figure = |criterion: String, value: f64, unit: &str| Row { criterion, value, unit: unit.into(), range: String::new(), verdict: String::new(), source: String::new() };
+        let mut rows = Vec::new();
+        for (name, t) in &self.tissues {
+            rows.push(figure(format!("{name} removed"), t.removed_mm3, "mm³"));
+            if let (Some(o), Some(u)) = (t.overcut_mm3, t.undercut_mm3) {
+                rows.push(figure(format!("{name} over-cut"), o, "mm³"));
+                rows.push(figure(format!("{name} under-cut"), u, "mm³"));
+            }
+        }
+        if let Some(d) = &self.deviation_mm {
+            for (what, v) in [("mean", d.mean), ("mean |deviation|", d.mean_abs), ("p95", d.p95), ("min", d.min), ("max", d.max)] {
+                rows.push(figure(format!("deviation {what}"), v, "mm"));
+            }
+        }
+        rows.push(figure("pulp exposed area".into(), self.pulp_exposed_area_mm2, "mm²"));
+        if let Some(c) = &self.crown {
+            rows.push(figure("axial reduction (least)".into(), c.axial_reduction_min_mm, "mm"));
+            rows.push(figure("width at the margin".into(), c.width_mm, "mm"));
+        }
+        for g in &self.grades {
+            let verdict = match g.verdict {
+                Verdict::Ideal => "ideal",
+                Verdict::Acceptable => "acceptable",
+                Verdict::OutOfRange => "out_of_range",
+            };
+            rows.push(Row { criterion: g.criterion.clone(), value: g.value, unit: g.unit.clone(), range: g.range.clone(), verdict: verdict.into(), source: g.source.clone() });
+        }
+        rows
+    }
+}
+
 /// The outer surface of a model's tooth tissues, and the grids that tell inside from outside.
 /// Tissues that abut (enamel on dentin) both mesh their interface; a triangle of one tissue
 /// with a corner within a quarter voxel of another tooth tissue is interface, not
