@@ -241,6 +241,16 @@ pub fn read_nifti(path: &Path, opts: &ReadOptions) -> Result<Volume> {
             return Err(Error::Truncated { path: path.into(), field: "voxel data".into(), expected: h.vox_offset + need as u64, found: h.vox_offset + done as u64 });
         }
     }
+    if gz {
+        // gzip's CRC and length are checked only at the end of the stream: read to it. A little
+        // trailing data is tolerated; an endless stream is not.
+        const MAX_TRAILING: u64 = 64 << 20;
+        let trailing = std::io::copy(&mut (&mut *r).take(MAX_TRAILING + 1), &mut std::io::sink())
+            .map_err(|e| Error::field(path, "gzip stream", format!("corrupt after the voxel data: {e}")))?;
+        if trailing > MAX_TRAILING {
+            return Err(Error::field(path, "gzip stream", format!("more than {MAX_TRAILING} bytes after the voxel data")));
+        }
+    }
     if h.scl_slope.is_finite() && h.scl_slope != 0.0 {
         let (s, i) = (h.scl_slope as f32, if h.scl_inter.is_finite() { h.scl_inter as f32 } else { 0.0 });
         if s != 1.0 || i != 0.0 {

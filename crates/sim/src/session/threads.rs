@@ -200,22 +200,21 @@ impl Session {
             None => (Vec::new(), Vec::new()),
         };
 
-        // Logger: open the file before the clock starts so a bad path fails here.
-        let writer = match &options.log_path {
+        // Logger: open the file before any work so a bad path fails here.
+        let mut writer = match &options.log_path {
             Some(path) => {
                 let file = File::create(path).map_err(|e| Error::File { path: path.clone(), message: e.to_string() })?;
-                let mut w = BufWriter::with_capacity(1 << 16, file);
-                let header = LogHeader {
-                    params: options.params.clone(),
-                    device: device.name().to_string(),
-                    tissues: names.clone(),
-                    start_hashes: model.tissues.iter().map(|t| t.grid.content_hash()).collect(),
-                    source: model.source.clone(),
-                };
-                write_header(&mut w, &header).map_err(|e| Error::File { path: path.clone(), message: e.to_string() })?;
-                Some((w, path.clone()))
+                Some((BufWriter::with_capacity(1 << 16, file), path.clone()))
             }
             None => None,
+        };
+        let header = LogHeader {
+            params: options.params.clone(),
+            device: device.name().to_string(),
+            tissues: names.clone(),
+            start_hashes: model.tissues.iter().map(|t| t.grid.content_hash()).collect(),
+            source: model.source.clone(),
+            started_unix_s: 0.0,
         };
         let mirror = options.mesher_hz.map(|hz| (model.clone(), hz));
         let burr = core.burr().clone();
@@ -231,6 +230,14 @@ impl Session {
         core.set_measure(Measure::Skip);
         let start_volumes = model.tissues.iter().map(|t| t.grid.volume()).collect();
 
+        if let Some((w, path)) = writer.as_mut() {
+            // Just before the threads start, so `started_unix_s` is within a thread spawn of
+            // tick 0; flushed now, so a session killed before its first tick leaves a readable log.
+            let started_unix_s = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0.0, |d| d.as_secs_f64());
+            write_header(w, &LogHeader { started_unix_s, ..header })
+                .and_then(|()| w.flush())
+                .map_err(|e| Error::File { path: path.clone(), message: e.to_string() })?;
+        }
         let s = shared.clone();
         let n_tissues = names.len();
         let logger = std::thread::Builder::new()
