@@ -158,7 +158,8 @@ pub fn prepare_to_dir(
     }
     // The cuts' own buffers are bounded per stroke by the sweep; the grids are not.
     let bytes = model.cutting_bytes_estimate();
-    let voxel = model.voxel_size().unwrap_or(0.0);
+    // Rounded to a micrometre: grids keep voxel sizes as f32.
+    let voxel = (model.voxel_size().unwrap_or(0.0) * 1e6).round() / 1e6;
     options.limits.check_memory(&format!("tissues {} ({voxel} mm voxels, burr {})", tissues.display(), burr.spec()), bytes)?;
     let before = model.volumes();
     progress("cutting", 0.0);

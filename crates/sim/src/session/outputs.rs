@@ -139,7 +139,8 @@ fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
 /// absurdly fine voxels is refused here instead of failing to allocate tens of GiB.
 fn check_session_memory(limits: &Limits, tissues: &Path, model: &TissueModel, burr: &crate::burr::Burr, params: &HapticParams) -> Result<()> {
     let bytes = model.cutting_bytes_estimate().saturating_add(crate::cutting::Cutter::buffer_bytes_estimate(model, burr, params.max_step_mm));
-    let voxel = model.voxel_size().unwrap_or(0.0);
+    // Rounded to a micrometre: grids keep voxel sizes as f32.
+    let voxel = (model.voxel_size().unwrap_or(0.0) * 1e6).round() / 1e6;
     limits.check_memory(&format!("tissues {} ({voxel} mm voxels, burr {})", tissues.display(), burr.spec()), bytes)
 }
 
