@@ -56,6 +56,28 @@ pub fn write_via<T, E: From<Error>>(path: &Path, write: impl FnOnce(&Path) -> Re
     Ok(value)
 }
 
+/// Staging folders are `.dentsim-staging.<pid>.<random>`: the pid tells a live batch from one a
+/// killed process left behind.
+const STAGE_PREFIX: &str = ".dentsim-staging.";
+
+/// Removes staging folders in `dir` whose process is gone (killed mid-write: its files never
+/// reached the destination). Only where `/proc` tells which processes live.
+fn remove_abandoned_stages(dir: &Path) {
+    if !Path::new("/proc/self").exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let Some(pid) = name.strip_prefix(STAGE_PREFIX).and_then(|rest| rest.split('.').next()).and_then(|p| p.parse::<u32>().ok()) else {
+            continue;
+        };
+        if !Path::new(&format!("/proc/{pid}")).exists() {
+            let _ = std::fs::remove_dir_all(entry.path());
+        }
+    }
+}
+
 /// Several files that appear together or not at all: each is written into a hidden staging
 /// folder inside the destination (same file system), and [`Batch::commit`] renames them all into
 /// place, putting back whatever it replaced if one rename fails. Dropped without `commit` (an
@@ -72,7 +94,9 @@ impl Batch {
     pub fn new(dir: &Path) -> Result<Batch, Error> {
         let err = |source| Error { path: dir.to_owned(), source };
         std::fs::create_dir_all(dir).map_err(err)?;
-        let stage = tempfile::Builder::new().prefix(".dentsim-staging.").tempdir_in(dir).map_err(err)?;
+        remove_abandoned_stages(dir);
+        let prefix = format!("{STAGE_PREFIX}{}.", std::process::id());
+        let stage = tempfile::Builder::new().prefix(&prefix).tempdir_in(dir).map_err(err)?;
         Ok(Batch { dir: dir.to_owned(), stage })
     }
 
@@ -291,5 +315,22 @@ mod tests {
         assert_eq!(names(dir.path()), ["a.json", "c.stl"]);
         assert_eq!(std::fs::read(dir.path().join("a.json")).unwrap(), b"old a");
         assert_eq!(std::fs::read(dir.path().join("c.stl")).unwrap(), b"old c");
+    }
+
+    #[test]
+    fn a_batch_clears_stages_abandoned_by_dead_processes_and_keeps_live_ones() {
+        if !Path::new("/proc/self").exists() {
+            return;
+        }
+        let dir = tempfile::tempdir().unwrap();
+        // No process has pid u32::MAX - 1 (above any pid_max); ours lives.
+        let dead = dir.path().join(format!("{STAGE_PREFIX}{}.abc", u32::MAX - 1));
+        let live = dir.path().join(format!("{STAGE_PREFIX}{}.def", std::process::id()));
+        for d in [&dead, &live] {
+            std::fs::create_dir(d).unwrap();
+            std::fs::write(d.join("enamel.vtp"), b"half").unwrap();
+        }
+        Batch::new(dir.path()).unwrap().commit().unwrap();
+        assert!(!dead.exists() && live.exists());
     }
 }

@@ -57,6 +57,7 @@ fn a_full_disk_fails_each_command_by_file_name_and_leaves_the_folder_as_it_was()
     let session = dir.path().join("session");
     let run = dentsim(&["session", "--tissues", start.to_str().unwrap(), "--out", session.to_str().unwrap(), "--device", "hand:start=0:0:5.6,target=0:0:3,pedal=1,duration=0.3"]);
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+    let log = session.join("session.dslog");
 
     for size in ["1m", "3m"] {
         let mount = dir.path().join(format!("full-{size}"));
@@ -70,7 +71,7 @@ fn a_full_disk_fails_each_command_by_file_name_and_leaves_the_folder_as_it_was()
         let segmented = out.join("tooth.vdb");
         let commands: Vec<Vec<&str>> = vec![
             vec!["prepare", start.to_str().unwrap(), "--path", csv.to_str().unwrap(), "--burr", "round:1.0", "--out", o],
-            vec!["replay", session.join("session.dslog").to_str().unwrap(), "--tissues", start.to_str().unwrap(), "--out", o],
+            vec!["replay", log.to_str().unwrap(), "--tissues", start.to_str().unwrap(), "--out", o],
             vec!["demo", "--out", o, "--voxel", "0.1"],
             vec!["segment", scan.to_str().unwrap(), "--out", segmented.to_str().unwrap()],
         ];
