@@ -1,9 +1,11 @@
 //! Headless sessions and their replays, written to a folder: what `dentsim session` and
 //! `dentsim replay` do, kept here so the command stays a thin face.
 //!
-//! Every input (tissues file, device, profile, filter, log) is read and checked before the output
-//! folder is touched, so bad input writes nothing. Each output is written under a temporary name
-//! and renamed; a failed session leaves no log behind.
+//! Every input (tissues file, device, profile, filter, log) is read and checked, against the
+//! [`Limits`] too, before the output folder is touched, so bad input writes nothing. The outputs
+//! are staged and appear together at the end ([`crate::tissues::export::all_or_nothing`]), except
+//! the session's log: it is written under its final name from the first tick, so a session that
+//! is killed, or fails after ticking (a full disk), leaves every tick it logged for a replay.
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -168,6 +170,10 @@ pub fn run_session_to_dir_with(req: &SessionRequest, limits: &Limits, progress: 
     // The log is written under its final name as the session runs (a killed session leaves its
     // ticks there); everything else is staged and appears at the end, all or nothing.
     let log_path = req.out.join(LOG_NAME);
+    // An earlier session's log is kept aside until this one has ticked, so a session that fails
+    // to start leaves the folder as it was.
+    let previous = req.out.join(format!(".{LOG_NAME}.previous"));
+    let had_previous = std::fs::rename(&log_path, &previous).is_ok();
     let options = SessionOptions {
         params: params.clone(),
         realtime: req.realtime,
@@ -182,12 +188,21 @@ pub fn run_session_to_dir_with(req: &SessionRequest, limits: &Limits, progress: 
         Err(e) => {
             // Not one tick ran: the folder goes back to how it was.
             let _ = std::fs::remove_file(&log_path);
+            if had_previous {
+                let _ = std::fs::rename(&previous, &log_path);
+            }
             if !existed {
                 let _ = std::fs::remove_dir(&req.out);
             }
             return Err(e);
         }
     };
+    if had_previous {
+        let _ = std::fs::remove_file(&previous);
+    }
+    // An earlier session's summary describes the log just replaced: a replay of this log, after
+    // a kill, must not compare itself with it.
+    let _ = std::fs::remove_file(req.out.join(SUMMARY_NAME));
     while session.is_running() {
         let t = session.latest().map_or(0.0, |r| r.t_s);
         progress("session", (t / duration_s.max(1e-3)).clamp(0.0, 1.0));
@@ -202,7 +217,7 @@ pub fn run_session_to_dir_with(req: &SessionRequest, limits: &Limits, progress: 
     let contact_s: Vec<f64> = outcome.contact_ticks.iter().map(|(_, t)| *t as f64 * period).collect();
     let volumes = outcome.volumes.clone();
     crate::tissues::export::all_or_nothing(&req.out, |staged| {
-            let tissues = write_tissues(&mut outcome.model, staged, volumes, &contact_s, progress)?;
+        let tissues = write_tissues(&mut outcome.model, staged, volumes, &contact_s, progress)?;
         let summary = SessionSummary {
             dentsim_version: env!("CARGO_PKG_VERSION").into(),
             tissues_file: req.tissues.display().to_string(),
@@ -220,8 +235,8 @@ pub fn run_session_to_dir_with(req: &SessionRequest, limits: &Limits, progress: 
             log: LOG_NAME.into(),
             tissues,
         };
-            write_json(&staged.join(SUMMARY_NAME), &summary)?;
-            Ok(summary)
+        write_json(&staged.join(SUMMARY_NAME), &summary)?;
+        Ok(summary)
     })
 }
 
