@@ -143,7 +143,8 @@ fn check_spacing(path: &Path, vol: &Volume) -> Result<()> {
             "metaimage" => "ElementSpacing",
             _ => "PixelSpacing / slice spacing",
         };
-        return Err(Error::field(path, field, format!("voxel size {s} mm in {:?}, expected {lo} to {hi} mm", vol.spacing)));
+        let all: Vec<String> = vol.spacing.iter().map(|v| format!("{v:.3e}")).collect();
+        return Err(Error::field(path, field, format!("voxel size {s:.3e} mm (of {}), expected {lo} to {hi} mm", all.join(", "))));
     }
     Ok(())
 }
