@@ -209,6 +209,10 @@ impl SessionLog {
     /// Checks every record of a version-4 log: its CRC, and that ticks increase. Errors name the
     /// tick (the one expected where the decoded one cannot be trusted) and the byte offset.
     pub fn parse(bytes: &[u8]) -> std::result::Result<Self, String> {
+        if bytes.is_empty() {
+            // The session creates its log, then writes the header once its grids are ready.
+            return Err("is empty: the session stopped before its first tick (nothing to replay)".into());
+        }
         if bytes.len() < 16 || bytes[..8] != MAGIC {
             return Err("not a dentsim session log (bad magic)".into());
         }
@@ -298,6 +302,14 @@ mod tests {
         let log = SessionLog::parse(&bytes).unwrap();
         assert_eq!((log.header, log.records, log.truncated_bytes), (header, vec![r], 3));
         assert!(SessionLog::parse(b"GARBAGE!").unwrap_err().contains("magic"));
+    }
+
+    #[test]
+    fn an_empty_log_says_the_session_never_ticked_and_a_header_alone_is_zero_ticks() {
+        assert!(SessionLog::parse(b"").unwrap_err().contains("before its first tick"));
+        let header_only = log_of(0);
+        let log = SessionLog::parse(&header_only).unwrap();
+        assert_eq!((log.records.len(), log.truncated_bytes), (0, 0));
     }
 
     fn log_of(ticks: u64) -> Vec<u8> {
