@@ -135,3 +135,12 @@ fn a_session_writes_a_checksummed_log_and_a_flipped_byte_stops_the_replay_at_its
     assert!(e.contains(&format!("tick {} expected", summary.ticks)), "{e}");
     assert!(!dir.path().join("r1").exists() && !dir.path().join("r2").exists(), "a refused replay writes nothing");
 }
+
+#[test]
+fn a_non_finite_point_is_refused_before_segmenting() {
+    let request = dentsim_sim::TissuesFromScan { seed_mm: Some([f64::NAN, 0.0, 0.0]), ..Default::default() };
+    let e = request.validate().unwrap_err().to_string();
+    assert!(e.starts_with("point") && e.contains("NaN"), "{e}");
+    let request = dentsim_sim::TissuesFromScan { bounds_mm: Some(([0.0; 3], [f64::INFINITY, 1.0, 1.0])), ..Default::default() };
+    assert!(request.validate().unwrap_err().to_string().starts_with("bounds"));
+}

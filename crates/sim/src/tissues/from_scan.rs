@@ -95,6 +95,13 @@ impl TissuesFromScan {
         if !(self.margin_mm.is_finite() && self.margin_mm >= 0.0) {
             return Err(invalid("margin", format!("{} mm", self.margin_mm)));
         }
+        // Every face (CLI, plugin) reaches here: a NaN point would silently pick some tooth.
+        if let Some(p) = self.seed_mm.filter(|p| p.iter().any(|v| !v.is_finite())) {
+            return Err(invalid("point", format!("{p:?} mm, expected three finite coordinates")));
+        }
+        if let Some((lo, hi)) = self.bounds_mm.filter(|(lo, hi)| lo.iter().chain(hi).any(|v| !v.is_finite())) {
+            return Err(invalid("bounds", format!("{lo:?} to {hi:?} mm, expected finite coordinates")));
+        }
         Ok(())
     }
 
