@@ -229,6 +229,13 @@ pub fn read_nifti(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         return Err(Error::Truncated { path: path.into(), field: "extensions before vox_offset".into(), expected: h.vox_offset, found: consumed + skipped });
     }
     let need = n * esize;
+    if !gz {
+        // Before allocating: an uncompressed file must hold the voxels its header claims.
+        let size = std::fs::metadata(path).map_err(io)?.len();
+        if size < h.vox_offset + need as u64 {
+            return Err(Error::Truncated { path: path.into(), field: "voxel data".into(), expected: h.vox_offset + need as u64, found: size });
+        }
+    }
     let mut values = Vec::with_capacity(n);
     let mut chunk = vec![0u8; (1 << 20) / esize * esize];
     let mut done = 0usize;

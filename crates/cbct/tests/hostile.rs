@@ -168,3 +168,18 @@ fn metaimage_ascii_data_is_refused_by_name() {
     let e = read(&p, &ReadOptions::default()).unwrap_err();
     assert!(matches!(&e, Error::Field { path, field, .. } if path == &p && field == "BinaryData"), "{e:?}");
 }
+
+#[test]
+fn a_small_nifti_claiming_a_large_volume_is_refused_before_allocating() {
+    let dir = tempfile::tempdir().unwrap();
+    let p = dir.path().join("claim.nii");
+    write_nifti(&small(), &p).unwrap();
+    let mut bytes = std::fs::read(&p).unwrap();
+    // dim[1..3] = 1024 each: 4 GiB of f32 claimed, under an 8 GiB cap, by a file of a few KB.
+    for i in 0..3 {
+        bytes[42 + 2 * i..44 + 2 * i].copy_from_slice(&1024i16.to_le_bytes());
+    }
+    std::fs::write(&p, &bytes).unwrap();
+    let e = read(&p, &ReadOptions { max_bytes: 8 << 30, series_uid: None }).unwrap_err();
+    assert!(matches!(&e, Error::Truncated { path, field, .. } if path == &p && field == "voxel data"), "{e:?}");
+}
