@@ -28,6 +28,10 @@ struct Frame {
     slope: f64,
     intercept: f64,
     thickness: Option<f64>,
+    /// (BitsAllocated, BitsStored, PixelRepresentation): how the stored values are read.
+    layout: (Option<i64>, Option<i64>, Option<i64>),
+    /// Pixel Data stored uncompressed (its size follows from rows, columns and bits).
+    native: bool,
 }
 
 #[derive(Default)]
@@ -48,6 +52,12 @@ fn text(obj: &InMemDicomObject, tag: Tag) -> Option<String> {
 fn floats(obj: &InMemDicomObject, tag: Tag) -> Option<Vec<f64>> {
     let e = obj.element_opt(tag).ok()??;
     e.to_multi_float64().ok().filter(|v| !v.is_empty() && v.iter().all(|x| x.is_finite()))
+}
+
+/// The element's text when it is present at all (for saying what an unreadable value was).
+fn present(obj: &InMemDicomObject, tag: Tag) -> Option<String> {
+    let e = obj.element_opt(tag).ok()??;
+    Some(e.to_str().map(|s| s.trim_matches(|c: char| c == '\0' || c.is_whitespace()).to_string()).unwrap_or_default())
 }
 
 fn int(obj: &InMemDicomObject, tag: Tag) -> Option<i64> {
@@ -71,12 +81,26 @@ fn fg_floats(obj: &InMemDicomObject, frame: usize, group: Tag, attr: Tag) -> Opt
     per.or_else(|| first_item(obj, tags::SHARED_FUNCTIONAL_GROUPS_SEQUENCE).and_then(|s| first_item(s, group)).and_then(|g| floats(g, attr)))
 }
 
+/// Like [`fg_floats`], the text of an element present in the functional groups.
+fn fg_present(obj: &InMemDicomObject, frame: usize, group: Tag, attr: Tag) -> Option<String> {
+    let per = obj
+        .element_opt(tags::PER_FRAME_FUNCTIONAL_GROUPS_SEQUENCE)
+        .ok()
+        .flatten()
+        .and_then(|e| e.items())
+        .and_then(|items| items.get(frame))
+        .and_then(|it| first_item(it, group))
+        .and_then(|g| present(g, attr));
+    per.or_else(|| first_item(obj, tags::SHARED_FUNCTIONAL_GROUPS_SEQUENCE).and_then(|s| first_item(s, group)).and_then(|g| present(g, attr)))
+}
+
 fn need<T>(v: Option<T>, path: &Path, field: &str, expected: &str) -> Result<T> {
     v.ok_or_else(|| Error::field(path, field, format!("missing or unreadable; expected {expected}")))
 }
 
 /// Frames of one file, or `Ok(None)` for a DICOM file without an image.
-fn frames_of(path: &Path, obj: &InMemDicomObject) -> Result<Option<Vec<Frame>>> {
+/// `native`: the file's transfer syntax stores pixels uncompressed.
+fn frames_of(path: &Path, obj: &InMemDicomObject, native: bool) -> Result<Option<Vec<Frame>>> {
     let (Some(rows), Some(cols)) = (int(obj, tags::ROWS), int(obj, tags::COLUMNS)) else {
         return Ok(None);
     };
@@ -95,8 +119,22 @@ fn frames_of(path: &Path, obj: &InMemDicomObject) -> Result<Option<Vec<Frame>>> 
         let ps = need(get(tags::PIXEL_MEASURES_SEQUENCE, tags::PIXEL_SPACING).filter(|v| v.len() >= 2), path, "PixelSpacing (0028,0030)", "2 numbers")?;
         let iop = need(get(tags::PLANE_ORIENTATION_SEQUENCE, tags::IMAGE_ORIENTATION_PATIENT).filter(|v| v.len() >= 6), path, "ImageOrientationPatient (0020,0037)", "6 numbers")?;
         let ipp = need(get(tags::PLANE_POSITION_SEQUENCE, tags::IMAGE_POSITION_PATIENT).filter(|v| v.len() >= 3), path, "ImagePositionPatient (0020,0032)", "3 numbers")?;
-        let slope = get(tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE, tags::RESCALE_SLOPE).and_then(|v| v.first().copied()).unwrap_or(1.0);
-        let intercept = get(tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE, tags::RESCALE_INTERCEPT).and_then(|v| v.first().copied()).unwrap_or(0.0);
+        // Absent rescale values default (1, 0); present but unreadable ones are errors, not defaults.
+        let rescale = |attr: Tag, field: &str, default: f64| -> Result<f64> {
+            if let Some(v) = get(tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE, attr).and_then(|v| v.first().copied()) {
+                return Ok(v);
+            }
+            let text = if enhanced { fg_present(obj, f, tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE, attr).or_else(|| present(obj, attr)) } else { present(obj, attr) };
+            match text {
+                Some(t) if !t.is_empty() => Err(Error::field(path, field, format!("'{t}' is not a finite number"))),
+                _ => Ok(default),
+            }
+        };
+        let slope = rescale(tags::RESCALE_SLOPE, "RescaleSlope (0028,1053)", 1.0)?;
+        let intercept = rescale(tags::RESCALE_INTERCEPT, "RescaleIntercept (0028,1052)", 0.0)?;
+        if slope == 0.0 {
+            return Err(Error::field(path, "RescaleSlope (0028,1053)", "0 would map every stored value to the intercept; expected a non-zero number"));
+        }
         let thickness = get(tags::PIXEL_MEASURES_SEQUENCE, tags::SLICE_THICKNESS).and_then(|v| v.first().copied());
         if ps[0] <= 0.0 || ps[1] <= 0.0 {
             return Err(Error::field(path, "PixelSpacing (0028,0030)", format!("expected positive values, found {ps:?}")));
@@ -113,6 +151,8 @@ fn frames_of(path: &Path, obj: &InMemDicomObject) -> Result<Option<Vec<Frame>>> 
             slope,
             intercept,
             thickness,
+            layout: (int(obj, tags::BITS_ALLOCATED), int(obj, tags::BITS_STORED), int(obj, tags::PIXEL_REPRESENTATION)),
+            native,
         });
     }
     Ok(Some(out))
@@ -142,6 +182,8 @@ pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     let mut frames: Vec<Frame> = Vec::new();
     let mut facts = Facts::default();
     let mut non_image = Vec::new();
+    // Files that were not DICOM at all: named in warnings, and blamed for a gap they sit in.
+    let mut skipped: Vec<(PathBuf, String)> = Vec::new();
     for f in &files {
         let obj = match OpenFileOptions::new().read_until(tags::PIXEL_DATA).open_file(f) {
             Ok(o) => o,
@@ -149,11 +191,20 @@ pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<Volume> {
                 if single {
                     return Err(Error::Dicom { path: f.clone(), message: format!("not a readable DICOM file: {e}") });
                 }
-                notes.push(format!("skipped {}: not DICOM ({e})", f.display()));
+                let reason = match std::fs::metadata(f) {
+                    Ok(m) if m.len() == 0 => "zero bytes".to_string(),
+                    _ => format!("not DICOM ({e})"),
+                };
+                notes.push(format!("skipped {}: {reason}", f.display()));
+                skipped.push((f.clone(), reason));
                 continue;
             }
         };
-        match frames_of(f, &obj)? {
+        let native = matches!(
+            obj.meta().transfer_syntax().trim_end_matches('\0'),
+            "1.2.840.10008.1.2" | "1.2.840.10008.1.2.1" | "1.2.840.10008.1.2.2"
+        );
+        match frames_of(f, &obj, native)? {
             Some(fr) => {
                 if facts.modality.is_none() {
                     facts.modality = text(&obj, tags::MODALITY);
@@ -201,6 +252,18 @@ pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         if (0..2).any(|i| (f.pixel_spacing[i] - first.pixel_spacing[i]).abs() > 1e-4 * first.pixel_spacing[i].max(1.0)) {
             return Err(Error::Inconsistent { path: f.file.clone(), field: "PixelSpacing (0028,0030)".into(), expected: format!("{:?}", first.pixel_spacing), found: format!("{:?}", f.pixel_spacing) });
         }
+        if f.layout != first.layout {
+            let show = |l: (Option<i64>, Option<i64>, Option<i64>)| {
+                let v = |x: Option<i64>| x.map_or("absent".to_string(), |x| x.to_string());
+                format!("{}/{}/{}", v(l.0), v(l.1), v(l.2))
+            };
+            return Err(Error::Inconsistent {
+                path: f.file.clone(),
+                field: "BitsAllocated/BitsStored/PixelRepresentation (0028,0100/0101/0103)".into(),
+                expected: show(first.layout),
+                found: show(f.layout),
+            });
+        }
         if (0..6).any(|i| (f.iop[i] - first.iop[i]).abs() > 1e-4) {
             return Err(Error::Inconsistent { path: f.file.clone(), field: "ImageOrientationPatient (0020,0037)".into(), expected: format!("{:?}", first.iop), found: format!("{:?}", f.iop) });
         }
@@ -230,6 +293,11 @@ pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<Volume> {
                 return Err(Error::Inconsistent { path: b.1.file.clone(), field: "ImagePositionPatient (0020,0032)".into(), expected: "distinct slice positions".into(), found: format!("same position as {} ({:.3} mm)", a.1.file.display(), a.0) });
             }
             if g > 1.5 * median {
+                // An unreadable file named between the neighbours is the likely missing slice.
+                let (lo, hi) = if a.1.file <= b.1.file { (&a.1.file, &b.1.file) } else { (&b.1.file, &a.1.file) };
+                if let Some((bad, reason)) = skipped.iter().find(|(s, _)| s > lo && s < hi) {
+                    return Err(Error::BadSlice { path: bad.clone(), reason: reason.clone(), file_a: a.1.file.clone(), file_b: b.1.file.clone() });
+                }
                 return Err(Error::MissingSlice { folder: path.to_path_buf(), file_a: a.1.file.clone(), file_b: b.1.file.clone(), pos_a: a.0, pos_b: b.0, gap: g, expected: median });
             }
             if (g - median).abs() > 0.1 * median {
@@ -244,6 +312,17 @@ pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     let dims = [first.cols, first.rows, nz];
     let n = check_cap(path, [dims[0] as u64, dims[1] as u64, dims[2] as u64], opts)?;
     let plane = first.cols * first.rows;
+    // Before allocating the volume: an uncompressed file must hold its frames' pixels, so a small
+    // file whose header claims a huge image is refused here, by name.
+    for (_, f) in keyed.iter().filter(|(_, f)| f.native && f.frame == 0) {
+        let frames = keyed.iter().filter(|(_, g)| g.file == f.file).count() as u64;
+        let bits = f.layout.0.unwrap_or(16).max(1) as u64;
+        let need = (plane as u64).saturating_mul(frames).saturating_mul(bits) / 8;
+        let size = std::fs::metadata(&f.file).map_err(|e| Error::io(&f.file, e))?.len();
+        if size < need {
+            return Err(Error::Truncated { path: f.file.clone(), field: format!("Pixel Data (7FE0,0010) of {}x{}x{frames} at {bits} bits", f.cols, f.rows), expected: need, found: size });
+        }
+    }
     let mut values = vec![0f32; n];
     // Decode each file once, placing its frames where the sort put them.
     let mut slot: std::collections::HashMap<(PathBuf, u32), usize> = std::collections::HashMap::new();

@@ -29,6 +29,8 @@ pub enum Error {
     MixedSeries { folder: PathBuf, uid_a: String, file_a: PathBuf, uid_b: String, file_b: PathBuf },
     #[error("{folder}: missing slice between {file_a} (position {pos_a:.3} mm along the normal) and {file_b} ({pos_b:.3} mm): gap {gap:.3} mm, expected about {expected:.3} mm")]
     MissingSlice { folder: PathBuf, file_a: PathBuf, file_b: PathBuf, pos_a: f64, pos_b: f64, gap: f64, expected: f64 },
+    #[error("{path}: unreadable slice ({reason}); the series has a gap where it belongs, between {file_a} and {file_b}")]
+    BadSlice { path: PathBuf, reason: String, file_a: PathBuf, file_b: PathBuf },
     #[error("{path}: field {field}: inconsistent with the rest of the series: expected {expected}, found {found}")]
     Inconsistent { path: PathBuf, field: String, expected: String, found: String },
     #[error("{path}: 4-D image (dim = {dims:?}); only 3-D volumes are supported")]

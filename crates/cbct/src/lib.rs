@@ -119,13 +119,34 @@ pub fn read(path: impl AsRef<Path>, opts: &ReadOptions) -> Result<Volume> {
         return dicom::read_dicom(path, opts);
     }
     let name = path.file_name().map(|n| n.to_string_lossy().to_lowercase()).unwrap_or_default();
-    if name.ends_with(".nii") || name.ends_with(".nii.gz") {
+    let vol = if name.ends_with(".nii") || name.ends_with(".nii.gz") {
         nifti::read_nifti(path, opts)
     } else if name.ends_with(".mha") || name.ends_with(".mhd") {
         metaimage::read_metaimage(path, opts)
     } else {
         dicom::read_dicom(path, opts)
+    }?;
+    check_spacing(path, &vol)?;
+    Ok(vol)
+}
+
+/// Voxel sizes a scan may have (mm): micro-CT reaches a few µm, no scan of teeth is coarser than
+/// centimetres. Outside them a header is wrong, and sizes derived from it (crops, level sets in
+/// mm) would be absurd.
+pub const SPACING_RANGE_MM: (f64, f64) = (1e-3, 100.0);
+
+fn check_spacing(path: &Path, vol: &Volume) -> Result<()> {
+    let (lo, hi) = SPACING_RANGE_MM;
+    if let Some(s) = vol.spacing.iter().find(|s| !(s.is_finite() && (lo..=hi).contains(*s))) {
+        let field = match vol.source.format.as_str() {
+            "nifti" => "pixdim / srow (voxel size)",
+            "metaimage" => "ElementSpacing",
+            _ => "PixelSpacing / slice spacing",
+        };
+        let all: Vec<String> = vol.spacing.iter().map(|v| format!("{v:.3e}")).collect();
+        return Err(Error::field(path, field, format!("voxel size {s:.3e} mm (of {}), expected {lo} to {hi} mm", all.join(", "))));
     }
+    Ok(())
 }
 
 pub(crate) fn check_cap(path: &Path, dims: [u64; 3], opts: &ReadOptions) -> Result<usize> {

@@ -118,6 +118,11 @@ pub fn read_metaimage(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     let truthy = |k: &str| get(k).map(|v| v.eq_ignore_ascii_case("true") || v == "1").unwrap_or(false);
     let msb = truthy("BinaryDataByteOrderMSB") || truthy("ElementByteOrderMSB");
     let compressed = truthy("CompressedData");
+    if let Some(b) = get("BinaryData") {
+        if !(b.eq_ignore_ascii_case("true") || b == "1") {
+            return Err(Error::field(path, "BinaryData", format!("is \"{b}\": ASCII voxel values are not supported; expected True (binary)")));
+        }
+    }
     let n = check_cap(path, [dims[0] as u64, dims[1] as u64, dims[2] as u64], opts)?;
     let need = (n * esize) as u64;
     let edf = get("ElementDataFile").unwrap_or("");

@@ -229,6 +229,13 @@ pub fn read_nifti(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         return Err(Error::Truncated { path: path.into(), field: "extensions before vox_offset".into(), expected: h.vox_offset, found: consumed + skipped });
     }
     let need = n * esize;
+    if !gz {
+        // Before allocating: an uncompressed file must hold the voxels its header claims.
+        let size = std::fs::metadata(path).map_err(io)?.len();
+        if size < h.vox_offset + need as u64 {
+            return Err(Error::Truncated { path: path.into(), field: "voxel data".into(), expected: h.vox_offset + need as u64, found: size });
+        }
+    }
     let mut values = Vec::with_capacity(n);
     let mut chunk = vec![0u8; (1 << 20) / esize * esize];
     let mut done = 0usize;
@@ -239,6 +246,16 @@ pub fn read_nifti(path: &Path, opts: &ReadOptions) -> Result<Volume> {
         done += got;
         if got < want {
             return Err(Error::Truncated { path: path.into(), field: "voxel data".into(), expected: h.vox_offset + need as u64, found: h.vox_offset + done as u64 });
+        }
+    }
+    if gz {
+        // gzip's CRC and length are checked only at the end of the stream: read to it. A little
+        // trailing data is tolerated; an endless stream is not.
+        const MAX_TRAILING: u64 = 64 << 20;
+        let trailing = std::io::copy(&mut (&mut *r).take(MAX_TRAILING + 1), &mut std::io::sink())
+            .map_err(|e| Error::field(path, "gzip stream", format!("corrupt after the voxel data: {e}")))?;
+        if trailing > MAX_TRAILING {
+            return Err(Error::field(path, "gzip stream", format!("more than {MAX_TRAILING} bytes after the voxel data")));
         }
     }
     if h.scl_slope.is_finite() && h.scl_slope != 0.0 {

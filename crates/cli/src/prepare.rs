@@ -22,6 +22,8 @@ pub struct Args {
     /// Tissue table overrides (TOML), for grids without dentsim metadata.
     #[arg(long)]
     tissues_table: Option<PathBuf>,
+    #[command(flatten)]
+    memory: crate::args::MemoryArgs,
 }
 
 pub fn run(args: &Args) -> Result<()> {
@@ -31,7 +33,8 @@ pub fn run(args: &Args) -> Result<()> {
         }
     }
     let table = crate::args::tissue_table(args.tissues_table.as_deref())?;
-    let options = PrepareOptions { force_n: args.force, ..PrepareOptions::default() };
+    let limits = crate::args::limits(args.memory, None)?;
+    let options = PrepareOptions { force_n: args.force, limits, ..PrepareOptions::default() };
     let bar = crate::progress::bar(100);
     let summary = prepare_to_dir(&args.tissues, &args.path, &args.burr, &options, &table, &args.out, &mut |step, f| {
         bar.set_message(step.to_owned());

@@ -3,7 +3,7 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use dentsim_sim::tissues::export::{FORCES_CSV_NAME, FORCES_PNG_NAME, REPLAY_SUMMARY_NAME, TISSUES_NAME};
-use dentsim_sim::session::outputs::replay_to_dir;
+use dentsim_sim::session::outputs::replay_to_dir_with;
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -15,15 +15,24 @@ pub struct Args {
     /// Output folder (created if missing).
     #[arg(long)]
     out: PathBuf,
+    #[command(flatten)]
+    memory: crate::args::MemoryArgs,
 }
 
 pub fn run(args: &Args) -> Result<()> {
+    let limits = crate::args::limits(args.memory, None)?;
     let bar = crate::progress::bar(100);
-    let summary = replay_to_dir(&args.log, &args.tissues, &args.out, &mut |step, fraction| {
+    let summary = replay_to_dir_with(&args.log, &args.tissues, &args.out, &limits, &mut |step, fraction| {
         bar.set_message(step.to_owned());
         bar.set_position((fraction * 100.0) as u64);
     })?;
     bar.finish_and_clear();
+    if summary.truncated_log_bytes > 0 {
+        println!(
+            "note: {} bytes after the last whole tick are not a whole record (the session stopped while writing); dropped",
+            summary.truncated_log_bytes
+        );
+    }
     println!("{} ticks replayed; largest force difference from the log {} N", summary.ticks, summary.max_force_difference_n);
     for t in &summary.tissues {
         println!("{:<8} removed {:>8.4} mm³  hash {}", t.volumes.name, t.volumes.removed_mm3, t.content_hash);

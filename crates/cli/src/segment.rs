@@ -26,9 +26,8 @@ pub struct Args {
     /// Grey values overriding the automatic calibration, e.g. soft_tissue=1150,dentin=2580,enamel=3350.
     #[arg(long, value_delimiter = ',')]
     thresholds: Vec<String>,
-    /// Refuse scans larger than this (GiB of 32-bit voxels), checked before reading voxel data.
-    #[arg(long, default_value_t = 2.0)]
-    max_memory_gib: f64,
+    #[command(flatten)]
+    memory: crate::args::MemoryArgs,
 }
 
 pub fn run(args: &Args) -> Result<()> {
@@ -42,24 +41,23 @@ pub fn run(args: &Args) -> Result<()> {
         ..TissuesFromScan::default()
     };
     request.validate()?;
-    if !(args.max_memory_gib.is_finite() && args.max_memory_gib > 0.0) {
-        bail!("--max-memory-gib: {} is not a positive size", args.max_memory_gib);
-    }
-    let options = ReadOptions { max_bytes: (args.max_memory_gib * (1u64 << 30) as f64) as u64, series_uid: None };
+    let limits = crate::args::limits(args.memory, None)?;
+    let options = ReadOptions { max_bytes: limits.max_memory_bytes, series_uid: None };
 
     let bar = crate::progress::bar(100);
     bar.set_message(format!("reading {}", args.input.display()));
     let scan = dentsim_cbct::read(&args.input, &options)?;
+    for note in &scan.source.notes {
+        bar.suspend(|| eprintln!("warning: {note}"));
+    }
     let (mut model, report) = request.run(&scan, &table, &mut |step, fraction| {
         bar.set_message(step.to_owned());
         bar.set_position((fraction * 95.0) as u64);
     })?;
     bar.set_message(format!("writing {}", args.out.display()));
-    model.save(&args.out)?;
-    let json = serde_json::to_vec_pretty(&report)?;
-    let report_path = PathBuf::from(format!("{}.json", args.out.display()));
-    dentsim_atomic::write(&report_path, |w| w.write_all(&json)).with_context(|| format!("writing {}", report_path.display()))?;
+    let report_path = dentsim_sim::tissues::from_scan::write_segmentation(&mut model, &report, &args.out)?;
     bar.finish_and_clear();
+    println!("{}", report.fdi_note);
     println!("calibration: {} (grey = {:.3} HU + {:.1})", report.calibration.method, report.calibration.hu_scale, report.calibration.hu_offset);
     for t in &report.tissues {
         println!("{:<8} {:>9.2} mm³", t.name, t.volume_mm3);

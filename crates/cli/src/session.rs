@@ -5,7 +5,7 @@ use anyhow::Result;
 use dentsim_sim::devices::DeviceProfile;
 use dentsim_sim::tissues::export::{LOG_NAME, SUMMARY_NAME, TISSUES_NAME};
 use dentsim_sim::haptics::filter::FilterSpec;
-use dentsim_sim::session::outputs::{run_session_to_dir, SessionRequest};
+use dentsim_sim::session::outputs::{run_session_to_dir_with, SessionRequest};
 
 #[derive(clap::Args)]
 pub struct Args {
@@ -32,6 +32,10 @@ pub struct Args {
     /// (`806 314 001 524 010`) or SHAPE:DIAMETER_MM[:LENGTH_MM] (`cylinder_flat:1.2:4`).
     #[arg(long, default_value = dentsim_sim::haptics::tick::DEFAULT_BURR)]
     burr: String,
+    #[command(flatten)]
+    memory: crate::args::MemoryArgs,
+    #[command(flatten)]
+    duration: crate::args::DurationArgs,
 }
 
 pub fn run(args: &Args) -> Result<()> {
@@ -44,8 +48,9 @@ pub fn run(args: &Args) -> Result<()> {
         realtime: args.realtime,
         burr: args.burr.clone(),
     };
+    let limits = crate::args::limits(args.memory, Some(args.duration))?;
     let bar = crate::progress::bar(100);
-    let summary = run_session_to_dir(&request, &mut |step, fraction| {
+    let summary = run_session_to_dir_with(&request, &limits, &mut |step, fraction| {
         bar.set_message(step.to_owned());
         bar.set_position((fraction * 100.0) as u64);
     })?;

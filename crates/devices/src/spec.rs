@@ -71,7 +71,12 @@ fn parse_hand(text: &str) -> std::result::Result<HandParams, String> {
             "target" => p.target = vector()?,
             "push" => p.push_n = positive()?,
             "stiffness" => p.stiffness_n_per_mm = positive()?,
-            "damping" => p.damping_n_s_per_mm = number()?.max(0.0),
+            "damping" => {
+                p.damping_n_s_per_mm = number()?;
+                if p.damping_n_s_per_mm < 0.0 {
+                    return Err(format!("field 'damping': {}, expected >= 0", p.damping_n_s_per_mm));
+                }
+            }
             "mass" => p.mass_kg = positive()?,
             "rpm" => {
                 p.rpm = number()?;

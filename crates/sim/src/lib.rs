@@ -15,6 +15,7 @@ pub mod burr;
 pub mod cutting;
 pub mod error;
 pub mod haptics;
+pub mod limits;
 pub mod plan;
 pub mod session;
 pub mod tissues;
@@ -22,6 +23,7 @@ pub mod tissues;
 /// The devices crate, for the faces (CLI, plugin) that name a device profile or tool path.
 pub use dentsim_devices as devices;
 pub use error::{Error, Result};
+pub use limits::Limits;
 
 pub use burr::{Burr, Shape, DEFAULT_BURR};
 pub use cutting::{Cutter, Feed, Handoff, StrokeReport};

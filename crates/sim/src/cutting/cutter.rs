@@ -140,6 +140,18 @@ impl Cutter {
         self.report.reset_for(model);
     }
 
+    /// Bytes [`Self::prepare`] would reserve for cuts of `travel_mm` in `model` (for memory caps,
+    /// checked before it allocates): per voxel of the cut's box, the patch value, the change log
+    /// and, per tissue, the grid's cut buffer and a change queue.
+    pub fn buffer_bytes_estimate(model: &TissueModel, burr: &Burr, travel_mm: f64) -> u64 {
+        let Some(h) = model.voxel_size() else { return 0 };
+        let band = model.tissues.iter().map(|t| f64::from(t.grid.background())).fold(0.0, f64::max);
+        let side = crate::cutting::sweep::Sweep::box_side(burr, h, band, travel_mm);
+        let change = std::mem::size_of::<dentsim_vdb::VoxelChange>() as u64;
+        let per_voxel = 4 + change + model.tissues.len() as u64 * (4 + change);
+        side.saturating_mul(side).saturating_mul(side).saturating_mul(per_voxel)
+    }
+
     /// Removes the burr's swept volume from `from` to `to` out of every tissue (geometric cut).
     pub fn cut(&mut self, model: &mut TissueModel, burr: &Burr, from: DAffine3, to: DAffine3) -> Result<StrokeReport> {
         self.cut_with(model, burr, from, to, Feed::Geometric)?;

@@ -112,9 +112,7 @@ impl Sweep {
     /// Grows the buffers for any stroke whose head's bounding-ball centre moves at most
     /// `travel_mm` (see [`build`](Self::build)); returns the largest patch's voxels per axis.
     pub fn reserve(&mut self, burr: &Burr, voxel: f64, band: f64, travel_mm: f64) -> [u32; 3] {
-        let reach = burr.bound().1 + band + 1.5 * voxel;
-        // The box runs from floor((lo − reach)/h) to ceil((hi + reach)/h), both inclusive.
-        let side = ((2.0 * reach + travel_mm.max(0.0)) / voxel).ceil() as u32 + 3;
+        let side = Self::box_side(burr, voxel, band, travel_mm) as u32;
         let total = side as usize * side as usize * side as usize;
         let p = &mut self.patch;
         p.values.reserve(total.saturating_sub(p.values.len()));
@@ -124,6 +122,14 @@ impl Sweep {
         self.material_rows.reserve(blocks.saturating_sub(self.material_rows.len()));
         self.rows.reserve(side as usize);
         [side; 3]
+    }
+
+    /// Voxels along each side of the box a cut of `travel_mm` works in (what [`Self::reserve`]
+    /// grows the buffers for), saturating rather than overflowing for absurd voxel sizes.
+    pub fn box_side(burr: &Burr, voxel: f64, band: f64, travel_mm: f64) -> u64 {
+        let reach = burr.bound().1 + band + 1.5 * voxel;
+        // The box runs from floor((lo − reach)/h) to ceil((hi + reach)/h), both inclusive.
+        ((2.0 * reach + travel_mm.max(0.0)) / voxel).ceil().min(u32::MAX as f64 / 2.0) as u64 + 3
     }
 
     /// Fills `patch` with the swept head's signed distance over its box plus `band` mm (the

@@ -134,7 +134,9 @@ fn path(points: &[DVec3]) -> Result<ToolPath> {
 
 /// Where `dentsim demo` puts its files.
 pub fn write(model: &mut TissueModel, summary: &mut DemoSummary, out: &Path, progress: &mut dyn FnMut(&str, f64)) -> Result<()> {
-    summary.triangles = crate::tissues::export::write_model(model, out, progress)?;
-    let json = serde_json::to_vec_pretty(summary).map_err(|e| invalid(SUMMARY_NAME, e.to_string()))?;
-    Ok(dentsim_atomic::write(&out.join(SUMMARY_NAME), |w| w.write_all(&json))?)
+    crate::tissues::export::all_or_nothing(out, |staged| {
+        summary.triangles = crate::tissues::export::write_model(model, staged, progress)?;
+        let json = serde_json::to_vec_pretty(summary).map_err(|e| invalid(SUMMARY_NAME, e.to_string()))?;
+        Ok(dentsim_atomic::write(&staged.join(SUMMARY_NAME), |w| w.write_all(&json))?)
+    })
 }

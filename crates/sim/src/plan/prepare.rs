@@ -21,11 +21,13 @@ pub struct PrepareOptions {
     /// table at this applied force (N), with the path's `rpm` column (or `default_rpm`).
     pub force_n: Option<f64>,
     pub default_rpm: f64,
+    /// The memory cap [`prepare_to_dir`] checks the tissues against before cutting.
+    pub limits: crate::Limits,
 }
 
 impl Default for PrepareOptions {
     fn default() -> Self {
-        PrepareOptions { force_n: None, default_rpm: crate::cutting::removal::REFERENCE_RPM }
+        PrepareOptions { force_n: None, default_rpm: crate::cutting::removal::REFERENCE_RPM, limits: crate::Limits::default() }
     }
 }
 
@@ -154,26 +156,32 @@ pub fn prepare_to_dir(
     if model.tissues.is_empty() {
         return Err(crate::Error::File { path: tissues.to_owned(), message: "holds no tissue grids".into() });
     }
+    // The cuts' own buffers are bounded per stroke by the sweep; the grids are not.
+    let bytes = model.cutting_bytes_estimate();
+    // Rounded to a micrometre: grids keep voxel sizes as f32.
+    let voxel = (model.voxel_size().unwrap_or(0.0) * 1e6).round() / 1e6;
+    options.limits.check_memory(&format!("tissues {} ({voxel} mm voxels, burr {})", tissues.display(), burr.spec()), bytes)?;
     let before = model.volumes();
     progress("cutting", 0.0);
     let report = prepare_with_progress(&mut model, &tool_path, &burr, options, &mut |f| progress("cutting", 0.8 * f))?;
-    std::fs::create_dir_all(out).map_err(|e| crate::Error::File { path: out.to_owned(), message: e.to_string() })?;
-    let triangles = crate::tissues::export::write_model(&mut model, out, &mut |step, f| progress(step, 0.8 + 0.2 * f))?;
-    let tissue_figures = TissueVolumes::of(&model, &before, |name| report.removed_mm3.get(name).copied().unwrap_or(0.0))
-        .into_iter()
-        .zip(triangles)
-        .map(|(volumes, (_, triangles))| TissueFigures { volumes, triangles })
-        .collect();
-    let summary = PrepareSummary {
-        tissues_file: tissues.display().to_string(),
-        path_file: path.display().to_string(),
-        force_n: options.force_n,
-        report,
-        tissues: tissue_figures,
-    };
-    let json = serde_json::to_vec_pretty(&summary).map_err(|e| crate::error::invalid(PREPARE_SUMMARY_NAME, e.to_string()))?;
-    dentsim_atomic::write(&out.join(PREPARE_SUMMARY_NAME), |w| w.write_all(&json))?;
-    Ok(summary)
+    crate::tissues::export::all_or_nothing(out, |staged| {
+        let triangles = crate::tissues::export::write_model(&mut model, staged, &mut |step, f| progress(step, 0.8 + 0.2 * f))?;
+        let tissue_figures = TissueVolumes::of(&model, &before, |name| report.removed_mm3.get(name).copied().unwrap_or(0.0))
+            .into_iter()
+            .zip(triangles)
+            .map(|(volumes, (_, triangles))| TissueFigures { volumes, triangles })
+            .collect();
+        let summary = PrepareSummary {
+            tissues_file: tissues.display().to_string(),
+            path_file: path.display().to_string(),
+            force_n: options.force_n,
+            report,
+            tissues: tissue_figures,
+        };
+        let json = serde_json::to_vec_pretty(&summary).map_err(|e| crate::error::invalid(PREPARE_SUMMARY_NAME, e.to_string()))?;
+        dentsim_atomic::write(&staged.join(PREPARE_SUMMARY_NAME), |w| w.write_all(&json))?;
+        Ok(summary)
+    })
 }
 
 /// Where a tool path comes from.

@@ -1,9 +1,12 @@
-//! The session log: binary, versioned, append-only; written by the logger thread.
+//! The session log: binary, versioned, append-only; written by the logger thread under its final
+//! name as the session runs, so a killed session leaves every tick flushed before the kill.
 //!
 //! Layout (little-endian): magic `DSIMLOG\0`, u32 version, u32 header length, the header as JSON
 //! ([`LogHeader`]: everything a replay needs besides the tissues), then one fixed-size
-//! [`TickRecord`] of [`RECORD_BYTES`] per tick. A crash leaves at worst a partial last record,
-//! which the reader reports and drops.
+//! [`TickRecord`] of [`RECORD_BYTES`] per tick. From version 4 the header JSON is followed by its
+//! CRC-32 and each record by the CRC-32 of its bytes, so a flipped byte or appended garbage is
+//! an error naming the tick. A crash leaves at worst a partial last record, which the reader
+//! reports and drops.
 use std::io::{Read, Write};
 use std::path::Path;
 
@@ -18,10 +21,15 @@ pub const MAGIC: [u8; 8] = *b"DSIMLOG\0";
 /// measure it; a replay does).
 /// 3: the header's haptic parameters name the burr by its spec (`burr`), not a round burr's
 /// diameter.
+/// (The oldest version this build still reads; logs are written as [`WRITTEN_VERSION`].)
 pub const VERSION: u32 = 3;
+/// 4: a CRC-32 after the header and after each record ([`CHECKED_RECORD_BYTES`]).
+pub const WRITTEN_VERSION: u32 = 4;
 pub const RECORD_BYTES: usize = 8 + 8 + 8 + 12 * 8 + 4 + 8 + 3 * 8 + 3 * 8 + 3 * 8 + 4 + 4 + 8;
 
 /// Flag bits of a record.
+pub const CHECKED_RECORD_BYTES: usize = RECORD_BYTES + 4;
+
 pub const FLAG_CUT: u32 = 1;
 pub const FLAG_MISSED: u32 = 2;
 pub const FLAG_DEVICE_FAULT: u32 = 4;
@@ -36,6 +44,10 @@ pub struct LogHeader {
     /// Content hash of each tissue grid at the start.
     pub start_hashes: Vec<u64>,
     pub source: String,
+    /// When tick 0 started, seconds since the Unix epoch (0 in logs written before it was kept):
+    /// with a record's `wall_s`, when that tick ran, e.g. to measure what a kill lost.
+    #[serde(default)]
+    pub started_unix_s: f64,
 }
 
 /// One tick as logged.
@@ -156,18 +168,22 @@ impl Reader<'_> {
     }
 }
 
-/// Writes the header; records follow with [`write_record`].
+/// Writes the header ([`WRITTEN_VERSION`]); records follow with [`write_record`].
 pub fn write_header(out: &mut impl Write, header: &LogHeader) -> std::io::Result<()> {
     let json = serde_json::to_vec(header).map_err(std::io::Error::other)?;
     out.write_all(&MAGIC)?;
-    out.write_all(&VERSION.to_le_bytes())?;
+    out.write_all(&WRITTEN_VERSION.to_le_bytes())?;
     out.write_all(&(json.len() as u32).to_le_bytes())?;
-    out.write_all(&json)
+    out.write_all(&json)?;
+    out.write_all(&crc32fast::hash(&json).to_le_bytes())
 }
 
+/// One record and its CRC-32.
 pub fn write_record(out: &mut impl Write, record: &TickRecord) -> std::io::Result<()> {
-    let mut buf = [0u8; RECORD_BYTES];
-    record.encode(&mut buf);
+    let mut buf = [0u8; CHECKED_RECORD_BYTES];
+    let (body, crc) = buf.split_at_mut(RECORD_BYTES);
+    record.encode(body.try_into().expect("RECORD_BYTES"));
+    crc.copy_from_slice(&crc32fast::hash(body).to_le_bytes());
     out.write_all(&buf)
 }
 
@@ -190,23 +206,60 @@ impl SessionLog {
         Self::parse(&bytes).map_err(err)
     }
 
+    /// Checks every record of a version-4 log: its CRC, and that ticks increase. Errors name the
+    /// tick (the one expected where the decoded one cannot be trusted) and the byte offset.
     pub fn parse(bytes: &[u8]) -> std::result::Result<Self, String> {
+        if bytes.is_empty() {
+            // The session creates its log, then writes the header once its grids are ready.
+            return Err("is empty: the session stopped before its first tick (nothing to replay)".into());
+        }
         if bytes.len() < 16 || bytes[..8] != MAGIC {
             return Err("not a dentsim session log (bad magic)".into());
         }
         let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-        if version != VERSION {
-            return Err(format!("log version {version}, this build reads version {VERSION}"));
+        if version != VERSION && version != WRITTEN_VERSION {
+            return Err(format!("log version {version}, this build reads version {VERSION} (unchecked) and version {WRITTEN_VERSION}"));
         }
+        let checked = version == WRITTEN_VERSION;
         let len = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
         let body = bytes.get(16..16 + len).ok_or("header runs past the end of the file")?;
+        let mut at = 16 + len;
+        if checked {
+            let crc = bytes.get(at..at + 4).ok_or("header checksum runs past the end of the file")?;
+            if crc32fast::hash(body).to_le_bytes() != crc {
+                return Err("header checksum mismatch (the file is damaged)".into());
+            }
+            at += 4;
+        }
         let header: LogHeader = serde_json::from_slice(body).map_err(|e| format!("header: {e}"))?;
-        let rest = &bytes[16 + len..];
-        let records = rest
-            .chunks_exact(RECORD_BYTES)
-            .map(|c| TickRecord::decode(c.try_into().expect("exact chunk")))
-            .collect();
-        Ok(SessionLog { header, records, truncated_bytes: rest.len() % RECORD_BYTES })
+        let rest = &bytes[at..];
+        let size = if checked { CHECKED_RECORD_BYTES } else { RECORD_BYTES };
+        let mut records: Vec<TickRecord> = Vec::with_capacity(rest.len() / size);
+        for (i, chunk) in rest.chunks_exact(size).enumerate() {
+            let record = TickRecord::decode(chunk[..RECORD_BYTES].try_into().expect("exact chunk"));
+            if checked {
+                let expected_tick = records.last().map_or(0, |r| r.tick + 1);
+                let offset = at + i * size;
+                if crc32fast::hash(&chunk[..RECORD_BYTES]).to_le_bytes() != chunk[RECORD_BYTES..] {
+                    return Err(format!(
+                        "record {i} (tick {expected_tick} expected, byte {offset}): checksum mismatch: a changed byte or data appended after the last tick"
+                    ));
+                }
+                if record.tick < expected_tick {
+                    return Err(format!("record {i} (byte {offset}): tick {} after tick {}, expected increasing ticks", record.tick, expected_tick - 1));
+                }
+            }
+            records.push(record);
+        }
+        Ok(SessionLog { header, records, truncated_bytes: rest.len() % size })
+    }
+
+    /// A note on a partial last record (a session killed while writing), naming the last whole tick.
+    pub fn truncation_note(&self) -> Option<String> {
+        (self.truncated_bytes > 0).then(|| {
+            let last = self.records.last().map_or("no tick".to_string(), |r| format!("tick {}", r.tick));
+            format!("{} bytes after {last} are not a whole record (a session stopped while writing); dropped", self.truncated_bytes)
+        })
     }
 }
 
@@ -240,6 +293,7 @@ mod tests {
             tissues: vec!["enamel".into()],
             start_hashes: vec![7],
             source: "unit test".into(),
+            started_unix_s: 0.0,
         };
         let mut bytes = Vec::new();
         write_header(&mut bytes, &header).unwrap();
@@ -248,5 +302,86 @@ mod tests {
         let log = SessionLog::parse(&bytes).unwrap();
         assert_eq!((log.header, log.records, log.truncated_bytes), (header, vec![r], 3));
         assert!(SessionLog::parse(b"GARBAGE!").unwrap_err().contains("magic"));
+    }
+
+    #[test]
+    fn an_empty_log_says_the_session_never_ticked_and_a_header_alone_is_zero_ticks() {
+        assert!(SessionLog::parse(b"").unwrap_err().contains("before its first tick"));
+        let header_only = log_of(0);
+        let log = SessionLog::parse(&header_only).unwrap();
+        assert_eq!((log.records.len(), log.truncated_bytes), (0, 0));
+    }
+
+    fn log_of(ticks: u64) -> Vec<u8> {
+        let header = LogHeader {
+            params: HapticParams::default(),
+            device: "test".into(),
+            tissues: vec!["enamel".into()],
+            start_hashes: vec![7],
+            source: "unit test".into(),
+            started_unix_s: 1.0,
+        };
+        let mut bytes = Vec::new();
+        write_header(&mut bytes, &header).unwrap();
+        for tick in 0..ticks {
+            let r = TickRecord { tick, t_s: tick as f64 * 1e-3, force: DVec3::new(0.0, 0.0, tick as f64), ..TickRecord::default() };
+            write_record(&mut bytes, &r).unwrap();
+        }
+        bytes
+    }
+
+    #[test]
+    fn every_flipped_byte_in_a_record_is_an_error_naming_its_tick() {
+        let bytes = log_of(5);
+        let first = bytes.len() - 5 * CHECKED_RECORD_BYTES;
+        assert_eq!(SessionLog::parse(&bytes).unwrap().records.len(), 5);
+        for at in first..bytes.len() {
+            let mut bad = bytes.clone();
+            bad[at] ^= 0x10;
+            let e = SessionLog::parse(&bad).unwrap_err();
+            let tick = (at - first) / CHECKED_RECORD_BYTES;
+            assert!(e.contains(&format!("tick {tick} expected")) && e.contains("checksum"), "byte {at}: {e}");
+        }
+        // A flipped byte in the header JSON is caught by its own CRC.
+        let mut bad = bytes.clone();
+        bad[20] ^= 0x01;
+        assert!(SessionLog::parse(&bad).unwrap_err().contains("header"), "header");
+    }
+
+    #[test]
+    fn appended_garbage_is_an_error_and_a_partial_record_a_note() {
+        let mut bytes = log_of(3);
+        bytes.extend(std::iter::repeat_n(0xAB, CHECKED_RECORD_BYTES + 7));
+        let e = SessionLog::parse(&bytes).unwrap_err();
+        assert!(e.contains("tick 3 expected") && e.contains("appended"), "{e}");
+        let mut cut = log_of(3);
+        cut.truncate(cut.len() - 10);
+        let log = SessionLog::parse(&cut).unwrap();
+        assert_eq!((log.records.len(), log.truncated_bytes), (2, CHECKED_RECORD_BYTES - 10));
+        let note = log.truncation_note().unwrap();
+        assert!(note.contains("after tick 1"), "{note}");
+    }
+
+    #[test]
+    fn version_3_logs_still_read() {
+        let header = LogHeader {
+            params: HapticParams::default(),
+            device: "v3".into(),
+            tissues: vec!["enamel".into()],
+            start_hashes: vec![7],
+            source: "unit test".into(),
+            started_unix_s: 0.0,
+        };
+        let json = serde_json::to_vec(&header).unwrap();
+        let mut bytes = MAGIC.to_vec();
+        bytes.extend_from_slice(&VERSION.to_le_bytes());
+        bytes.extend_from_slice(&(json.len() as u32).to_le_bytes());
+        bytes.extend_from_slice(&json);
+        let r = TickRecord { tick: 0, rpm: 5.0, ..TickRecord::default() };
+        let mut buf = [0u8; RECORD_BYTES];
+        r.encode(&mut buf);
+        bytes.extend_from_slice(&buf);
+        let log = SessionLog::parse(&bytes).unwrap();
+        assert_eq!((log.header, log.records), (header, vec![r]));
     }
 }

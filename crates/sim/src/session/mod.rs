@@ -9,6 +9,6 @@ pub mod threads;
 
 pub use live::{LiveRequest, LiveSession, LiveState};
 pub use log::{SessionLog, TickRecord};
-pub use outputs::{replay_to_dir, run_session_to_dir, SessionRequest};
+pub use outputs::{replay_to_dir, replay_to_dir_with, run_session_to_dir, run_session_to_dir_with, SessionRequest};
 pub use replay::{replay, ReplayOutcome};
 pub use threads::{run_session, Session, SessionOptions, SessionOutcome, DEFAULT_MESHER_HZ, QUEUE_CHANGES};

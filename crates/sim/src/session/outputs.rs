@@ -1,9 +1,11 @@
 //! Headless sessions and their replays, written to a folder: what `dentsim session` and
 //! `dentsim replay` do, kept here so the command stays a thin face.
 //!
-//! Every input (tissues file, device, profile, filter, log) is read and checked before the output
-//! folder is touched, so bad input writes nothing. Each output is written under a temporary name
-//! and renamed; a failed session leaves no log behind.
+//! Every input (tissues file, device, profile, filter, log) is read and checked, against the
+//! [`Limits`] too, before the output folder is touched, so bad input writes nothing. The outputs
+//! are staged and appear together at the end ([`crate::tissues::export::all_or_nothing`]), except
+//! the session's log: it is written under its final name from the first tick, so a session that
+//! is killed, or fails after ticking (a full disk), leaves every tick it logged for a replay.
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -11,6 +13,7 @@ use dentsim_devices::{DeviceProfile, DeviceSpec};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{invalid, Error, Result};
+use crate::limits::Limits;
 use crate::haptics::filter::FilterSpec;
 use crate::haptics::tick::HapticParams;
 use crate::session::log::SessionLog;
@@ -134,68 +137,126 @@ fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<()> {
     Ok(dentsim_atomic::write(path, |w| w.write_all(&json))?)
 }
 
+/// The tissues ready for cutting plus the cutter's buffers, against the memory cap: a file with
+/// absurdly fine voxels is refused here instead of failing to allocate tens of GiB.
+fn check_session_memory(limits: &Limits, tissues: &Path, model: &TissueModel, burr: &crate::burr::Burr, params: &HapticParams) -> Result<()> {
+    let bytes = model.cutting_bytes_estimate().saturating_add(crate::cutting::Cutter::buffer_bytes_estimate(model, burr, params.max_step_mm));
+    // Rounded to a micrometre: grids keep voxel sizes as f32.
+    let voxel = (model.voxel_size().unwrap_or(0.0) * 1e6).round() / 1e6;
+    limits.check_memory(&format!("tissues {} ({voxel} mm voxels, burr {})", tissues.display(), burr.spec()), bytes)
+}
+
 /// Runs a headless session and writes `session.dslog`, `tissues.vdb`, `<tissue>.vtp/.stl` and
 /// `summary.json` into `req.out`. `progress(step, fraction)` follows the session time.
 pub fn run_session_to_dir(req: &SessionRequest, progress: &mut dyn FnMut(&str, f64)) -> Result<SessionSummary> {
+    run_session_to_dir_with(req, &Limits::default(), progress)
+}
+
+/// [`run_session_to_dir`] within `limits`: a device that runs longer than the session cap, or
+/// tissues that would need more memory than the cap, are refused before anything is written.
+pub fn run_session_to_dir_with(req: &SessionRequest, limits: &Limits, progress: &mut dyn FnMut(&str, f64)) -> Result<SessionSummary> {
     let profile = DeviceProfile::named(&req.profile).map_err(|e| invalid("profile", e.to_string()))?;
     let filter = FilterSpec::named(&req.filter).map_err(|m| invalid("filter", m))?;
     let spec = DeviceSpec::parse(&req.device).map_err(|e| invalid("device", e.to_string()))?;
     let model = load_tissues(&req.tissues)?;
     let (device, duration_s) = spec.open().map_err(|e| invalid("device", e.to_string()))?;
-    crate::burr::Burr::parse(&req.burr)?;
+    limits.check_session(&req.device, duration_s)?;
+    let burr = crate::burr::Burr::parse(&req.burr)?;
     let params = HapticParams { profile, filter, burr: req.burr.clone(), ..HapticParams::default() };
+    check_session_memory(limits, &req.tissues, &model, &burr, &params)?;
+    let existed = req.out.exists();
     create_dir(&req.out)?;
     let period = params.period_s;
-    // The log is staged until the tissues are written too: a failed session leaves none.
-    let (outcome, tissues) = dentsim_atomic::write_via(&req.out.join(LOG_NAME), |staged_log| -> Result<_> {
-        let options = SessionOptions {
-            params: params.clone(),
-            realtime: req.realtime,
-            max_duration_s: (duration_s + 1.0).max(1.0),
-            log_path: Some(staged_log.to_owned()),
-            mesher_hz: None,
-            raise_priority: req.realtime,
-            ..SessionOptions::default()
-        };
-        let session = Session::start(model, device, options)?;
-        while session.is_running() {
-            let t = session.latest().map_or(0.0, |r| r.t_s);
-            progress("session", (t / duration_s.max(1e-3)).clamp(0.0, 1.0));
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        let mut outcome = session.stop()?;
-        let contact_s: Vec<f64> = outcome.contact_ticks.iter().map(|(_, t)| *t as f64 * period).collect();
-        let volumes = outcome.volumes.clone();
-        let tissues = write_tissues(&mut outcome.model, &req.out, volumes, &contact_s, progress)?;
-        Ok((outcome, tissues))
-    })?;
-    let summary = SessionSummary {
-        dentsim_version: env!("CARGO_PKG_VERSION").into(),
-        tissues_file: req.tissues.display().to_string(),
-        device: req.device.clone(),
-        profile: req.profile.clone(),
-        filter: req.filter.clone(),
-        burr: req.burr.clone(),
+    // The log is written under its final name as the session runs (a killed session leaves its
+    // ticks there); everything else is staged and appears at the end, all or nothing.
+    let log_path = req.out.join(LOG_NAME);
+    // An earlier session's log is kept aside until this one has ticked, so a session that fails
+    // to start leaves the folder as it was.
+    let previous = req.out.join(format!(".{LOG_NAME}.previous"));
+    let had_previous = std::fs::rename(&log_path, &previous).is_ok();
+    let options = SessionOptions {
+        params: params.clone(),
         realtime: req.realtime,
-        ticks: outcome.ticks,
-        duration_s: outcome.ticks as f64 * period,
-        missed_deadlines: outcome.missed_deadlines,
-        watchdog_trips: outcome.watchdog_trips,
-        device_faults: outcome.device_faults,
-        max_force_n: outcome.max_force_n,
-        log: LOG_NAME.into(),
-        tissues,
+        max_duration_s: (duration_s + 1.0).max(1.0),
+        log_path: Some(log_path.clone()),
+        mesher_hz: None,
+        raise_priority: req.realtime,
+        ..SessionOptions::default()
     };
-    write_json(&req.out.join(SUMMARY_NAME), &summary)?;
-    Ok(summary)
+    let session = match Session::start(model, device, options) {
+        Ok(s) => s,
+        Err(e) => {
+            // Not one tick ran: the folder goes back to how it was.
+            let _ = std::fs::remove_file(&log_path);
+            if had_previous {
+                let _ = std::fs::rename(&previous, &log_path);
+            }
+            if !existed {
+                let _ = std::fs::remove_dir(&req.out);
+            }
+            return Err(e);
+        }
+    };
+    if had_previous {
+        let _ = std::fs::remove_file(&previous);
+    }
+    // An earlier session's summary describes the log just replaced: a replay of this log, after
+    // a kill, must not compare itself with it.
+    let _ = std::fs::remove_file(req.out.join(SUMMARY_NAME));
+    while session.is_running() {
+        let t = session.latest().map_or(0.0, |r| r.t_s);
+        progress("session", (t / duration_s.max(1e-3)).clamp(0.0, 1.0));
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let mut outcome = session.stop().map_err(|e| match e {
+        Error::File { path, message } if path == log_path => {
+            Error::File { path, message: format!("{message} (the ticks logged before it stay in this file)") }
+        }
+        other => other,
+    })?;
+    let contact_s: Vec<f64> = outcome.contact_ticks.iter().map(|(_, t)| *t as f64 * period).collect();
+    let volumes = outcome.volumes.clone();
+    crate::tissues::export::all_or_nothing(&req.out, |staged| {
+        let tissues = write_tissues(&mut outcome.model, staged, volumes, &contact_s, progress)?;
+        let summary = SessionSummary {
+            dentsim_version: env!("CARGO_PKG_VERSION").into(),
+            tissues_file: req.tissues.display().to_string(),
+            device: req.device.clone(),
+            profile: req.profile.clone(),
+            filter: req.filter.clone(),
+            burr: req.burr.clone(),
+            realtime: req.realtime,
+            ticks: outcome.ticks,
+            duration_s: outcome.ticks as f64 * period,
+            missed_deadlines: outcome.missed_deadlines,
+            watchdog_trips: outcome.watchdog_trips,
+            device_faults: outcome.device_faults,
+            max_force_n: outcome.max_force_n,
+            log: LOG_NAME.into(),
+            tissues,
+        };
+        write_json(&staged.join(SUMMARY_NAME), &summary)?;
+        Ok(summary)
+    })
 }
 
 /// Replays `log` on the tissues it started from and writes `tissues.vdb`, meshes, `forces.csv`,
 /// `forces.png` and `replay.json` into `out`. If the session's `summary.json` lies beside the
 /// log, the final content hashes are compared with it; a difference is an error (after writing).
 pub fn replay_to_dir(log_path: &Path, tissues: &Path, out: &Path, progress: &mut dyn FnMut(&str, f64)) -> Result<ReplaySummary> {
+    replay_to_dir_with(log_path, tissues, out, &Limits::default(), progress)
+}
+
+/// [`replay_to_dir`] within `limits`: the log's size (its records are held in memory) and the
+/// tissues' are checked against the memory cap before either is read whole.
+pub fn replay_to_dir_with(log_path: &Path, tissues: &Path, out: &Path, limits: &Limits, progress: &mut dyn FnMut(&str, f64)) -> Result<ReplaySummary> {
+    let log_bytes = std::fs::metadata(log_path).map_err(|e| Error::File { path: log_path.to_owned(), message: e.to_string() })?.len();
+    // Records decode to about 1.3 times their size, and the replay keeps a force sample per tick.
+    limits.check_memory(&format!("session log {}", log_path.display()), log_bytes.saturating_mul(3))?;
     let log = SessionLog::read(log_path)?;
     let model = load_tissues(tissues)?;
+    let burr = crate::burr::Burr::parse(&log.header.params.burr).map_err(|e| Error::File { path: log_path.to_owned(), message: e.to_string() })?;
+    check_session_memory(limits, tissues, &model, &burr, &log.header.params)?;
     let session: Option<SessionSummary> = match log_path.parent().map(|d| d.join(SUMMARY_NAME)) {
         Some(p) if p.is_file() => {
             let text = std::fs::read(&p).map_err(|e| Error::File { path: p.clone(), message: e.to_string() })?;
@@ -207,37 +268,39 @@ pub fn replay_to_dir(log_path: &Path, tissues: &Path, out: &Path, progress: &mut
     let mut again = replay_with_progress(&log, model, &mut |f| progress("replay", f))
         .map_err(|e| Error::File { path: tissues.to_owned(), message: e.to_string() })?;
 
-    create_dir(out)?;
-    let period = log.header.params.period_s;
-    let mut contact = vec![0.0; again.model.tissues.len()];
-    for s in &again.forces {
-        if let Some(c) = usize::try_from(s.tissue).ok().and_then(|i| contact.get_mut(i)) {
-            *c += period;
+    let summary = crate::tissues::export::all_or_nothing(out, |staged| {
+        let period = log.header.params.period_s;
+        let mut contact = vec![0.0; again.model.tissues.len()];
+        for s in &again.forces {
+            if let Some(c) = usize::try_from(s.tissue).ok().and_then(|i| contact.get_mut(i)) {
+                *c += period;
+            }
         }
-    }
-    let names: Vec<String> = again.model.tissues.iter().map(|t| t.props.name.clone()).collect();
-    let colours: Vec<[f32; 3]> = again.model.tissues.iter().map(|t| t.props.colour).collect();
-    let removed = |name: &str| again.removed_mm3.iter().find(|(n, _)| n == name).map_or(0.0, |r| r.1);
-    let volumes = TissueVolumes::of(&again.model, &before, removed);
-    let tissues_out = write_tissues(&mut again.model, out, volumes, &contact, progress)?;
-    progress("writing forces", 1.0);
-    write_force_csv(&out.join(FORCES_CSV_NAME), &again.forces, &names)?;
-    plot_forces(&out.join(FORCES_PNG_NAME), &again.forces, &colours, 1200, 500)?;
-    let hashes_match_session = session.as_ref().map(|s| {
-        s.tissues.len() == tissues_out.len()
-            && s.tissues.iter().zip(&tissues_out).all(|(a, b)| a.volumes.name == b.volumes.name && a.content_hash == b.content_hash)
-    });
-    let summary = ReplaySummary {
-        log: log_path.display().to_string(),
-        ticks: log.records.len() as u64,
-        max_force_difference_n: again.max_force_difference_n,
-        ticks_cut_differently: again.ticks_cut_differently,
-        truncated_log_bytes: log.truncated_bytes,
-        hashes_match_session,
-        tissues: tissues_out,
-    };
-    write_json(&out.join(REPLAY_SUMMARY_NAME), &summary)?;
-    if hashes_match_session == Some(false) {
+        let names: Vec<String> = again.model.tissues.iter().map(|t| t.props.name.clone()).collect();
+        let colours: Vec<[f32; 3]> = again.model.tissues.iter().map(|t| t.props.colour).collect();
+        let removed = |name: &str| again.removed_mm3.iter().find(|(n, _)| n == name).map_or(0.0, |r| r.1);
+        let volumes = TissueVolumes::of(&again.model, &before, removed);
+        let tissues_out = write_tissues(&mut again.model, staged, volumes, &contact, progress)?;
+        progress("writing forces", 1.0);
+        write_force_csv(&staged.join(FORCES_CSV_NAME), &again.forces, &names)?;
+        plot_forces(&staged.join(FORCES_PNG_NAME), &again.forces, &colours, 1200, 500)?;
+        let hashes_match_session = session.as_ref().map(|s| {
+            s.tissues.len() == tissues_out.len()
+                && s.tissues.iter().zip(&tissues_out).all(|(a, b)| a.volumes.name == b.volumes.name && a.content_hash == b.content_hash)
+        });
+        let summary = ReplaySummary {
+            log: log_path.display().to_string(),
+            ticks: log.records.len() as u64,
+            max_force_difference_n: again.max_force_difference_n,
+            ticks_cut_differently: again.ticks_cut_differently,
+            truncated_log_bytes: log.truncated_bytes,
+            hashes_match_session,
+            tissues: tissues_out,
+        };
+        write_json(&staged.join(REPLAY_SUMMARY_NAME), &summary)?;
+        Ok(summary)
+    })?;
+    if summary.hashes_match_session == Some(false) {
         return Err(invalid(
             "replay",
             format!("final content hashes differ from the session's {} (see {})", SUMMARY_NAME, out.join(REPLAY_SUMMARY_NAME).display()),

@@ -200,22 +200,21 @@ impl Session {
             None => (Vec::new(), Vec::new()),
         };
 
-        // Logger: open the file before the clock starts so a bad path fails here.
-        let writer = match &options.log_path {
+        // Logger: open the file before any work so a bad path fails here.
+        let mut writer = match &options.log_path {
             Some(path) => {
                 let file = File::create(path).map_err(|e| Error::File { path: path.clone(), message: e.to_string() })?;
-                let mut w = BufWriter::with_capacity(1 << 16, file);
-                let header = LogHeader {
-                    params: options.params.clone(),
-                    device: device.name().to_string(),
-                    tissues: names.clone(),
-                    start_hashes: model.tissues.iter().map(|t| t.grid.content_hash()).collect(),
-                    source: model.source.clone(),
-                };
-                write_header(&mut w, &header).map_err(|e| Error::File { path: path.clone(), message: e.to_string() })?;
-                Some((w, path.clone()))
+                Some((BufWriter::with_capacity(1 << 16, file), path.clone()))
             }
             None => None,
+        };
+        let header = LogHeader {
+            params: options.params.clone(),
+            device: device.name().to_string(),
+            tissues: names.clone(),
+            start_hashes: model.tissues.iter().map(|t| t.grid.content_hash()).collect(),
+            source: model.source.clone(),
+            started_unix_s: 0.0,
         };
         let mirror = options.mesher_hz.map(|hz| (model.clone(), hz));
         let burr = core.burr().clone();
@@ -231,11 +230,27 @@ impl Session {
         core.set_measure(Measure::Skip);
         let start_volumes = model.tissues.iter().map(|t| t.grid.volume()).collect();
 
+        if let Some((w, path)) = writer.as_mut() {
+            // Just before the threads start, so `started_unix_s` is within a thread spawn of
+            // tick 0; flushed now, so a session killed before its first tick leaves a readable log.
+            let started_unix_s = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0.0, |d| d.as_secs_f64());
+            write_header(w, &LogHeader { started_unix_s, ..header })
+                .and_then(|()| w.flush())
+                .map_err(|e| Error::File { path: path.clone(), message: e.to_string() })?;
+        }
         let s = shared.clone();
         let n_tissues = names.len();
+        let raise = options.raise_priority;
         let logger = std::thread::Builder::new()
             .name("dentsim-logger".into())
-            .spawn(move || logger_loop(rec_rx, writer, &s, n_tissues))
+            .spawn(move || {
+                // Below the haptic thread, above everything else: a busy machine must not hold
+                // the log's flushes back (a kill loses what is not flushed).
+                if raise {
+                    raise_priority(LOGGER_FIFO, LOGGER_NICE);
+                }
+                logger_loop(rec_rx, writer, &s, n_tissues)
+            })
             .map_err(|e| invalid("logger thread", e.to_string()))?;
         let mesher = match mirror {
             Some((mirror, hz)) => {
@@ -255,7 +270,7 @@ impl Session {
             .name("dentsim-haptic".into())
             .spawn(move || {
                 if options.raise_priority {
-                    raise_priority();
+                    raise_priority(HAPTIC_FIFO, HAPTIC_NICE);
                 }
                 let mut model = model;
                 let mut core = core;
@@ -365,22 +380,30 @@ pub fn run_session<D: Device + 'static>(model: TissueModel, device: D, options: 
     session.stop()
 }
 
+/// Priorities (thread_priority's cross-platform 0–99) of the haptic and logger threads, as
+/// SCHED_FIFO where permitted, else as raised normal priorities.
+const HAPTIC_FIFO: u8 = 50;
+const HAPTIC_NICE: u8 = 20;
+const LOGGER_FIFO: u8 = 30;
+const LOGGER_NICE: u8 = 10;
+
 /// Real-time priority where the system permits it: SCHED_FIFO (root, CAP_SYS_NICE or an rtprio
 /// limit), else a raised normal priority; without either the thread keeps its priority and the
 /// watchdog covers missed deadlines. The tick sleeps for most of its period, so a FIFO haptic
 /// thread leaves the mesher and logger most of a core.
-fn raise_priority() {
+/// The logger, a FIFO thread too, sleeps 2 ms between drains and takes little of it.
+fn raise_priority(fifo_value: u8, normal_value: u8) {
     use thread_priority::{
         set_thread_priority_and_policy, thread_native_id, RealtimeThreadSchedulePolicy, ThreadPriority, ThreadPriorityValue,
         ThreadSchedulePolicy,
     };
     let fifo = ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo);
-    if let Ok(value) = ThreadPriorityValue::try_from(50u8) {
+    if let Ok(value) = ThreadPriorityValue::try_from(fifo_value) {
         if set_thread_priority_and_policy(thread_native_id(), ThreadPriority::Crossplatform(value), fifo).is_ok() {
             return;
         }
     }
-    if let Ok(value) = ThreadPriorityValue::try_from(20u8) {
+    if let Ok(value) = ThreadPriorityValue::try_from(normal_value) {
         let _ = thread_priority::set_current_thread_priority(ThreadPriority::Crossplatform(value));
     }
 }

@@ -5,7 +5,7 @@ use std::path::Path;
 
 use dentsim_vdb::TriMesh;
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::tissues::model::TissueModel;
 use crate::tissues::table::TissueProps;
 
@@ -19,6 +19,37 @@ pub const REPLAY_SUMMARY_NAME: &str = "replay.json";
 pub const PREPARE_SUMMARY_NAME: &str = "prepare.json";
 pub const FORCES_CSV_NAME: &str = "forces.csv";
 pub const FORCES_PNG_NAME: &str = "forces.png";
+
+/// Runs `write` on a staging folder inside `out` and renames everything it wrote into `out` at
+/// the end ([`dentsim_atomic::Batch`]): on any error `out` is as before (a folder this call
+/// created is removed again) and the error names the file in `out`, not its staged twin.
+pub fn all_or_nothing<T>(out: &Path, write: impl FnOnce(&Path) -> Result<T>) -> Result<T> {
+    let existed = out.exists();
+    let result = (|| {
+        let batch = dentsim_atomic::Batch::new(out)?;
+        let value = write(batch.dir()).map_err(|e| unstage(&batch, e))?;
+        batch.commit()?;
+        Ok(value)
+    })();
+    if result.is_err() && !existed {
+        // Only an empty folder goes (a session's log, kept on purpose, keeps it).
+        let _ = std::fs::remove_dir(out);
+    }
+    result
+}
+
+/// The same error naming the destination file instead of the staged one.
+fn unstage(batch: &dentsim_atomic::Batch, e: Error) -> Error {
+    let stage = batch.dir().display().to_string();
+    let out = batch.destination().display().to_string();
+    match e {
+        Error::File { path, message } => Error::File { path: batch.final_path(&path), message: message.replace(&stage, &out) },
+        other => {
+            let text = other.to_string();
+            if text.contains(&stage) { Error::Invalid { what: "writing".into(), message: text.replace(&stage, &out) } } else { other }
+        }
+    }
+}
 
 /// Writes each tissue's surface as `<tissue>.vtp` and `<tissue>.stl` and all grids as
 /// [`TISSUES_NAME`] into `out`; returns each tissue's triangle count. `progress(step, fraction)`.

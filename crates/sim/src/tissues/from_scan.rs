@@ -54,7 +54,11 @@ pub struct SegmentedTissue {
 
 #[derive(Clone, Debug, Serialize)]
 pub struct ScanReport {
+    /// The user's label for the tooth: segmentation keeps the tooth nearest the seed point and
+    /// does not identify teeth, so this number is never checked against the scan.
     pub fdi: u8,
+    /// Says so in the report itself ([`FDI_NOTE`]).
+    pub fdi_note: String,
     pub voxel_size_mm: f64,
     pub scan_dims: [usize; 3],
     pub scan_spacing_mm: [f64; 3],
@@ -76,6 +80,10 @@ pub struct Timings {
     pub level_sets: f64,
 }
 
+/// What the FDI number of a segmented tooth means (`{fdi}` is replaced by the number).
+pub const FDI_NOTE: &str = "tooth {fdi} is the user's label (--tooth) for the tooth nearest the seed point; \
+                            the scan's teeth are not identified, so the number is not checked";
+
 impl TissuesFromScan {
     pub fn validate(&self) -> Result<()> {
         if !(self.voxel_size_mm.is_finite() && (0.01..=1.0).contains(&self.voxel_size_mm)) {
@@ -86,6 +94,13 @@ impl TissuesFromScan {
         }
         if !(self.margin_mm.is_finite() && self.margin_mm >= 0.0) {
             return Err(invalid("margin", format!("{} mm", self.margin_mm)));
+        }
+        // Every face (CLI, plugin) reaches here: a NaN point would silently pick some tooth.
+        if let Some(p) = self.seed_mm.filter(|p| p.iter().any(|v| !v.is_finite())) {
+            return Err(invalid("point", format!("{p:?} mm, expected three finite coordinates")));
+        }
+        if let Some((lo, hi)) = self.bounds_mm.filter(|(lo, hi)| lo.iter().chain(hi).any(|v| !v.is_finite())) {
+            return Err(invalid("bounds", format!("{lo:?} to {hi:?} mm, expected finite coordinates")));
         }
         Ok(())
     }
@@ -155,6 +170,7 @@ impl TissuesFromScan {
         progress("done", 1.0);
         let report = ScanReport {
             fdi: self.fdi,
+            fdi_note: FDI_NOTE.replace("{fdi}", &self.fdi.to_string()),
             voxel_size_mm: self.voxel_size_mm,
             scan_dims: scan.dims,
             scan_spacing_mm: scan.spacing,
@@ -167,6 +183,21 @@ impl TissuesFromScan {
         };
         Ok((model, report))
     }
+}
+
+/// Writes the tissues at `out` (.vdb) and the report beside it as `<out>.json`, both or neither
+/// ([`crate::tissues::export::all_or_nothing`]); returns the report's path.
+pub fn write_segmentation(model: &mut TissueModel, report: &ScanReport, out: &std::path::Path) -> Result<std::path::PathBuf> {
+    let name = out.file_name().ok_or_else(|| invalid("output", format!("{} is not a file path", out.display())))?.to_owned();
+    let json_name = format!("{}.json", name.to_string_lossy());
+    let folder = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+    let json = serde_json::to_vec_pretty(report).map_err(|e| invalid("scan report", e.to_string()))?;
+    crate::tissues::export::all_or_nothing(folder, |staged| {
+        model.save(&staged.join(&name))?;
+        dentsim_atomic::write(&staged.join(&json_name), |w| std::io::Write::write_all(w, &json))?;
+        Ok(())
+    })?;
+    Ok(folder.join(json_name))
 }
 
 /// Builds the tooth's tissues from nested unions so that each grid encloses only its own material

@@ -80,6 +80,23 @@ impl TissueModel {
         self.tissues.iter_mut().try_for_each(|t| t.grid.voxelize_inside().map_err(Into::into))
     }
 
+    /// Bytes the tissues may hold once cut or made ready for cutting: their trees now, plus a
+    /// leaf for every voxel of each tissue's bounding box (what [`Self::voxelize_for_cutting`]
+    /// makes of the interior, and the most a cut can touch), at 4 bytes a voxel. Cheap: no
+    /// allocation; callers check it against [`crate::Limits`] before the work.
+    pub fn cutting_bytes_estimate(&self) -> u64 {
+        self.tissues
+            .iter()
+            .map(|t| {
+                let boxed = t.grid.index_bbox().map_or(0u64, |b| {
+                    let d = (b.max - b.min).as_i64vec3() + glam::I64Vec3::ONE;
+                    (d.x.max(0) as u64).saturating_mul(d.y.max(0) as u64).saturating_mul(d.z.max(0) as u64)
+                });
+                t.grid.mem_bytes().saturating_add(boxed.saturating_mul(4))
+            })
+            .fold(0u64, u64::saturating_add)
+    }
+
     /// Collapses uniform inactive leaves into tiles (OpenVDB's `pruneLevelSet`).
     pub fn compact(&mut self) {
         self.tissues.iter_mut().for_each(|t| t.grid.prune());

@@ -66,6 +66,12 @@ impl TissueTable {
     pub fn with_overrides(mut self, text: &str, source_name: &str) -> Result<Self> {
         let err = |message: String| Error::TissueTable { source_name: source_name.into(), message };
         let overrides: Overrides = toml::from_str(text).map_err(|e| err(e.to_string()))?;
+        // A second entry would silently replace the first's values.
+        for (i, o) in overrides.tissues.iter().enumerate() {
+            if overrides.tissues[..i].iter().any(|p| p.name == o.name) {
+                return Err(err(format!("tissue '{}' appears twice ([[tissue]] entries {} and {})", o.name, overrides.tissues[..i].iter().position(|p| p.name == o.name).unwrap_or(0) + 1, i + 1)));
+            }
+        }
         for o in overrides.tissues {
             let t = match self.tissues.iter_mut().position(|t| t.name == o.name) {
                 Some(i) => &mut self.tissues[i],
@@ -154,5 +160,17 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("stifness"), "{e}");
+    }
+
+    #[test]
+    fn a_tissue_named_twice_is_refused_in_overrides_and_whole_tables() {
+        let twice = "[[tissue]]\nname = \"enamel\"\nstiffness_n_per_mm = 5\n[[tissue]]\nname = \"enamel\"\nstiffness_n_per_mm = 9\n";
+        let e = TissueTable::default().with_overrides(twice, "user.toml").unwrap_err().to_string();
+        assert!(e.contains("user.toml") && e.contains("'enamel' appears twice"), "{e}");
+        let mut whole = toml::to_string(&TissueTable::default()).unwrap();
+        let enamel = toml::to_string(&TissueTable { tissues: vec![TissueTable::default().get("enamel").unwrap().clone()] }).unwrap();
+        whole.push_str(&enamel);
+        let e = TissueTable::parse(&whole, "full.toml").unwrap_err().to_string();
+        assert!(e.contains("full.toml") && e.contains("enamel"), "{e}");
     }
 }
