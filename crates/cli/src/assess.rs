@@ -28,6 +28,8 @@ pub struct Args {
     /// Tissue table overrides (TOML), for grids without dentsim metadata.
     #[arg(long)]
     tissues_table: Option<PathBuf>,
+    #[command(flatten)]
+    memory: crate::args::MemoryArgs,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -43,7 +45,8 @@ pub fn run(args: &Args) -> Result<()> {
         (PrepKind::Cavity, Some(_)) => anyhow::bail!("--axis: a path of insertion is for --kind crown"),
         (PrepKind::Crown, axis) => Kind::Crown { axis: axis.map(glam::DVec3::from_array) },
     };
-    let a = assess_to_dir(&args.prepared, &args.original, args.reference.as_deref(), kind, &table, &args.out)?;
+    let limits = crate::args::limits(args.memory, None)?;
+    let a = assess_to_dir(&args.prepared, &args.original, args.reference.as_deref(), kind, &table, &limits, &args.out)?;
     for (name, t) in &a.tissues {
         let vs = match (t.overcut_mm3, t.undercut_mm3) {
             (Some(o), Some(u)) => format!("  overcut {o:>8.3} mm³  undercut {u:>8.3} mm³"),

@@ -74,6 +74,7 @@ fn a_full_disk_fails_each_command_by_file_name_and_leaves_the_folder_as_it_was()
             vec!["replay", log.to_str().unwrap(), "--tissues", start.to_str().unwrap(), "--out", o],
             vec!["demo", "--out", o, "--voxel", "0.1"],
             vec!["segment", scan.to_str().unwrap(), "--out", segmented.to_str().unwrap()],
+            vec!["assess", session.to_str().unwrap(), "--original", start.to_str().unwrap(), "--out", o],
         ];
         for args in commands {
             let run = dentsim(&args);

@@ -9,7 +9,8 @@ use plotters::style::{register_font, FontStyle};
 
 use crate::assess::{assess_as, Assessment, Kind, Verdict};
 use crate::error::{Error, Result};
-use crate::tissues::export::{write_vtp_with, TISSUES_NAME};
+use crate::limits::Limits;
+use crate::tissues::export::{all_or_nothing, write_vtp_with, TISSUES_NAME};
 use crate::tissues::model::TissueModel;
 use crate::tissues::table::TissueTable;
 
@@ -26,19 +27,25 @@ pub fn tissues_file(path: &Path) -> PathBuf {
     }
 }
 
-/// Loads the three models, assesses, and writes the outputs into `out` (created if missing).
-pub fn assess_to_dir(prepared: &Path, original: &Path, reference: Option<&Path>, kind: Kind, table: &TissueTable, out: &Path) -> Result<Assessment> {
+/// Loads the three models, assesses, and writes the outputs into `out` (created if missing), all
+/// or nothing. The models' grids, their copies for the set operations and their surfaces must fit
+/// in `limits`.
+pub fn assess_to_dir(prepared: &Path, original: &Path, reference: Option<&Path>, kind: Kind, table: &TissueTable, limits: &Limits, out: &Path) -> Result<Assessment> {
     let load = |p: &Path| TissueModel::load(&tissues_file(p), table);
     let (prepared, original) = (load(prepared)?, load(original)?);
     let reference = reference.map(load).transpose()?;
+    // Each grid once more for the set operations and about as much again for its surface.
+    let bytes: u64 = [Some(&prepared), Some(&original), reference.as_ref()].into_iter().flatten().flat_map(|m| &m.tissues).map(|t| 3 * t.grid.mem_bytes()).sum();
+    limits.check_memory("assessing the three tissue models", bytes)?;
     let assessment = assess_as(&prepared, &original, reference.as_ref(), kind)?;
-    std::fs::create_dir_all(out).map_err(|e| Error::File { path: out.to_owned(), message: format!("cannot create the output folder: {e}") })?;
-    let json = serde_json::to_string_pretty(&assessment).map_err(|e| Error::File { path: out.join(ASSESSMENT_JSON), message: e.to_string() })?;
-    dentsim_atomic::write(&out.join(ASSESSMENT_JSON), |w| w.write_all(json.as_bytes()))?;
-    let s = &assessment.surface;
-    let props = table.get("enamel").cloned().unwrap_or_else(|| table.tissues[0].clone());
-    write_vtp_with(&out.join(ASSESSED_SURFACE), &s.mesh, &props, &[("DeviationMm", &s.deviation_mm), ("CutDepthMm", &s.cut_depth_mm)])?;
-    draw_report(&out.join(ASSESSMENT_PNG), &assessment, reference.is_some())?;
+    all_or_nothing(out, |staged| {
+        let json = serde_json::to_string_pretty(&assessment).map_err(|e| crate::error::invalid(ASSESSMENT_JSON, e.to_string()))?;
+        dentsim_atomic::write(&staged.join(ASSESSMENT_JSON), |w| w.write_all(json.as_bytes()))?;
+        let s = &assessment.surface;
+        let props = table.get("enamel").cloned().unwrap_or_else(|| table.tissues[0].clone());
+        write_vtp_with(&staged.join(ASSESSED_SURFACE), &s.mesh, &props, &[("DeviationMm", &s.deviation_mm), ("CutDepthMm", &s.cut_depth_mm)])?;
+        draw_report(&staged.join(ASSESSMENT_PNG), &assessment, reference.is_some())
+    })?;
     Ok(assessment)
 }
 
