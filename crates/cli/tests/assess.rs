@@ -1,21 +1,15 @@
 //! `dentsim assess` end to end on a groove cut by `dentsim prepare` into the capsule tooth: the
 //! figures agree with prepare's, the surface opens in VTK's own reader with its arrays, and a
 //! preparation against itself has no over- or under-cut.
+mod common;
+
 use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Command;
 
 use dentsim_sim::tissues::capsule::CapsuleTooth;
 use dentsim_sim::tissues::table::TissueTable;
 
-fn dentsim(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_dentsim")).args(args).env("RUST_BACKTRACE", "0").output().unwrap()
-}
-
-const GROOVE: &str = "t,x,y,z,qw,qx,qy,qz,rpm,cut\n\
-0,-2.0,0,5.5,1,0,0,0,200000,1\n\
-0.5,-2.0,0,4.0,1,0,0,0,200000,1\n\
-1.5,1.0,0,2.9,1,0,0,0,200000,1\n\
-2.0,1.0,0,5.5,1,0,0,0,200000,0\n";
+use common::{dentsim, GROOVE};
 
 fn json(path: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
