@@ -68,8 +68,9 @@ fn first_item(obj: &InMemDicomObject, seq: Tag) -> Option<&InMemDicomObject> {
     obj.element_opt(seq).ok()??.items()?.first()
 }
 
-/// Looks an attribute up in an Enhanced object's functional groups: per-frame first, then shared.
-fn fg_floats(obj: &InMemDicomObject, frame: usize, group: Tag, attr: Tag) -> Option<Vec<f64>> {
+/// Looks an attribute up in an Enhanced object's functional groups (per-frame first, then
+/// shared), read by `read`.
+fn fg_lookup<T>(obj: &InMemDicomObject, frame: usize, group: Tag, attr: Tag, read: impl Fn(&InMemDicomObject, Tag) -> Option<T>) -> Option<T> {
     let per = obj
         .element_opt(tags::PER_FRAME_FUNCTIONAL_GROUPS_SEQUENCE)
         .ok()
@@ -77,21 +78,17 @@ fn fg_floats(obj: &InMemDicomObject, frame: usize, group: Tag, attr: Tag) -> Opt
         .and_then(|e| e.items())
         .and_then(|items| items.get(frame))
         .and_then(|it| first_item(it, group))
-        .and_then(|g| floats(g, attr));
-    per.or_else(|| first_item(obj, tags::SHARED_FUNCTIONAL_GROUPS_SEQUENCE).and_then(|s| first_item(s, group)).and_then(|g| floats(g, attr)))
+        .and_then(|g| read(g, attr));
+    per.or_else(|| first_item(obj, tags::SHARED_FUNCTIONAL_GROUPS_SEQUENCE).and_then(|s| first_item(s, group)).and_then(|g| read(g, attr)))
+}
+
+fn fg_floats(obj: &InMemDicomObject, frame: usize, group: Tag, attr: Tag) -> Option<Vec<f64>> {
+    fg_lookup(obj, frame, group, attr, floats)
 }
 
 /// Like [`fg_floats`], the text of an element present in the functional groups.
 fn fg_present(obj: &InMemDicomObject, frame: usize, group: Tag, attr: Tag) -> Option<String> {
-    let per = obj
-        .element_opt(tags::PER_FRAME_FUNCTIONAL_GROUPS_SEQUENCE)
-        .ok()
-        .flatten()
-        .and_then(|e| e.items())
-        .and_then(|items| items.get(frame))
-        .and_then(|it| first_item(it, group))
-        .and_then(|g| present(g, attr));
-    per.or_else(|| first_item(obj, tags::SHARED_FUNCTIONAL_GROUPS_SEQUENCE).and_then(|s| first_item(s, group)).and_then(|g| present(g, attr)))
+    fg_lookup(obj, frame, group, attr, present)
 }
 
 fn need<T>(v: Option<T>, path: &Path, field: &str, expected: &str) -> Result<T> {

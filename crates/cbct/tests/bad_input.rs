@@ -1,30 +1,13 @@
 //! Bad input: each case gives a clear error naming the file and field, never a panic.
 
+mod common;
+
+use common::{edit, series, small};
 use dentsim_cbct::*;
 use dicom_core::value::PrimitiveValue;
 use dicom_core::{DataElement, VR};
 use dicom_dictionary_std::tags;
-use dicom_object::open_file;
 use proptest::prelude::*;
-use std::path::{Path, PathBuf};
-
-fn small() -> Volume {
-    Phantom::new(&PhantomSpec { dims: [24, 20, 12], spacing_mm: 0.5, ..Default::default() }).scan()
-}
-
-fn series(dir: &Path) -> (PathBuf, Vec<PathBuf>) {
-    let out = dir.join("s");
-    write_dicom_series(&small(), &out).unwrap();
-    let mut files: Vec<_> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().path()).collect();
-    files.sort();
-    (out, files)
-}
-
-fn edit(file: &Path, f: impl FnOnce(&mut dicom_object::DefaultDicomObject)) {
-    let mut o = open_file(file).unwrap();
-    f(&mut o);
-    o.write_to_file(file).unwrap();
-}
 
 #[test]
 fn truncated_files() {

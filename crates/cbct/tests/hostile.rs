@@ -2,30 +2,13 @@
 //! now each is an error naming the file and the field, or (a stray file in a series) a warning
 //! naming it while the series is read.
 
+mod common;
+
+use common::{edit, series, small};
 use dentsim_cbct::*;
 use dicom_core::value::PrimitiveValue;
 use dicom_core::{DataElement, VR};
 use dicom_dictionary_std::tags;
-use dicom_object::open_file;
-use std::path::{Path, PathBuf};
-
-fn small() -> Volume {
-    Phantom::new(&PhantomSpec { dims: [24, 20, 12], spacing_mm: 0.5, ..Default::default() }).scan()
-}
-
-fn series(dir: &Path) -> (PathBuf, Vec<PathBuf>) {
-    let out = dir.join("s");
-    write_dicom_series(&small(), &out).unwrap();
-    let mut files: Vec<_> = std::fs::read_dir(&out).unwrap().map(|e| e.unwrap().path()).collect();
-    files.sort();
-    (out, files)
-}
-
-fn edit(file: &Path, f: impl FnOnce(&mut dicom_object::DefaultDicomObject)) {
-    let mut o = open_file(file).unwrap();
-    f(&mut o);
-    o.write_to_file(file).unwrap();
-}
 
 fn put_ds(tag: dicom_core::Tag, text: &'static str) -> impl FnOnce(&mut dicom_object::DefaultDicomObject) {
     move |o| {

@@ -287,14 +287,7 @@ mod tests {
         let mut buf = [0u8; RECORD_BYTES];
         r.encode(&mut buf);
         assert_eq!(TickRecord::decode(&buf), r);
-        let header = LogHeader {
-            params: HapticParams::default(),
-            device: "test".into(),
-            tissues: vec!["enamel".into()],
-            start_hashes: vec![7],
-            source: "unit test".into(),
-            started_unix_s: 0.0,
-        };
+        let header = test_header(0.0);
         let mut bytes = Vec::new();
         write_header(&mut bytes, &header).unwrap();
         write_record(&mut bytes, &r).unwrap();
@@ -312,17 +305,20 @@ mod tests {
         assert_eq!((log.records.len(), log.truncated_bytes), (0, 0));
     }
 
-    fn log_of(ticks: u64) -> Vec<u8> {
-        let header = LogHeader {
+    fn test_header(started_unix_s: f64) -> LogHeader {
+        LogHeader {
             params: HapticParams::default(),
             device: "test".into(),
             tissues: vec!["enamel".into()],
             start_hashes: vec![7],
             source: "unit test".into(),
-            started_unix_s: 1.0,
-        };
+            started_unix_s,
+        }
+    }
+
+    fn log_of(ticks: u64) -> Vec<u8> {
         let mut bytes = Vec::new();
-        write_header(&mut bytes, &header).unwrap();
+        write_header(&mut bytes, &test_header(1.0)).unwrap();
         for tick in 0..ticks {
             let r = TickRecord { tick, t_s: tick as f64 * 1e-3, force: DVec3::new(0.0, 0.0, tick as f64), ..TickRecord::default() };
             write_record(&mut bytes, &r).unwrap();
