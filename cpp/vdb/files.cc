@@ -29,6 +29,9 @@
 #define DENTSIM_ASAN 0
 #endif
 
+// Set by a sanitizer runtime (libFuzzer writes its crash file from it); weak so plain builds link.
+extern "C" void __sanitizer_set_death_callback(void (*callback)(void)) __attribute__((weak));
+
 namespace dentsim::vdb {
 
 GridList::GridList(std::unique_ptr<Impl> i) : impl(std::move(i)) {}
@@ -133,6 +136,9 @@ rust::String probe_read(rust::Slice<const uint8_t> bytes, uint64_t max_bytes, ui
   }
   if (pid == 0) {
     close(fds[0]);
+    // A crash must end the child: not the host's handlers (ParaView's, a fuzzer's) inherited.
+    for (int sig : {SIGSEGV, SIGBUS, SIGABRT, SIGFPE, SIGILL}) signal(sig, SIG_DFL);
+    if (__sanitizer_set_death_callback) __sanitizer_set_death_callback(nullptr);
     // No core dumps, and no glibc/OpenVDB noise on the user's terminal.
     struct rlimit no_core {0, 0};
     setrlimit(RLIMIT_CORE, &no_core);

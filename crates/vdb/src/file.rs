@@ -156,7 +156,8 @@ fn one_line(message: &str) -> String {
 /// grid count, then per grid a descriptor (name, type, instance parent, grid/block/end byte
 /// offsets) followed by the grid. Checked so a truncated file or a wild count or length is one
 /// clear error before OpenVDB allocates what a corrupt length asks for.
-fn check_layout(bytes: &[u8]) -> std::result::Result<(), String> {
+#[doc(hidden)]
+pub fn check_layout(bytes: &[u8]) -> std::result::Result<(), String> {
     let n = bytes.len() as u64;
     let mut c = Cursor { bytes, pos: 0 };
     let magic = c.u64("magic number")?;
