@@ -65,7 +65,8 @@ def expect_error(update, label, name):
     text = errors_of(update)
     check(label in text and name in text, "error names %r and %r: %r" % (label, name, text[:400]))
     check(len(text) < 4000, "a short message (%d characters)" % len(text))
-    print("%s / %s: %s" % (label, name, text.strip().splitlines()[-1][:200]))
+    line = next(l for l in text.splitlines() if "DentSim:" in l)
+    print("%s / %s: %s" % (label, name, line[line.index("DentSim:"):][:240]))
 
 
 # Tissues Reader (File Name).
@@ -76,6 +77,8 @@ for name in bad_vdbs:
 reader.FileName = good
 reader.UpdatePipeline()
 check(servermanager.Fetch(reader).GetNumberOfBlocks() == 1, "the reader recovers")
+simple.Delete(reader)
+simple.SetActiveSource(None)  # else the preparation takes the reader as its tool path input
 
 # Dental Preparation (Tissues File, Tool Path File (CSV)).
 prep = DentalPreparation(TissuesFile=good, ToolPathFileCSV=good_csv, Burr="round:1.0")
