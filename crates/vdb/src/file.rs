@@ -110,7 +110,7 @@ pub fn read_unguarded(bytes: &[u8], limits: &ReadLimits) -> std::result::Result<
 }
 
 fn check_grid(name: &str, grid: &LevelSet, limits: &ReadLimits) -> std::result::Result<(), String> {
-    let name = one_line(name);
+    let name = quoted_name(name);
     let h = grid.voxel_size();
     if !(h >= limits.min_voxel && h <= limits.max_voxel) {
         return Err(format!("grid '{name}' has voxel size {h}, expected {} to {}", limits.min_voxel, limits.max_voxel));
@@ -135,6 +135,15 @@ fn check_grid(name: &str, grid: &LevelSet, limits: &ReadLimits) -> std::result::
 /// OpenVDB's messages can quote whatever garbage a corrupt file held (megabytes of it): keep one
 /// printable line of at most 300 characters.
 fn one_line(message: &str) -> String {
+    clip(message, 300)
+}
+
+/// A name out of the file (a grid's), as short as a message can quote it.
+fn quoted_name(name: &str) -> String {
+    clip(name, 60)
+}
+
+fn clip(message: &str, max_chars: usize) -> String {
     let mut out = String::new();
     let mut last_space = true;
     for c in message.chars() {
@@ -143,7 +152,7 @@ fn one_line(message: &str) -> String {
             continue;
         }
         last_space = c == ' ';
-        if out.chars().count() >= 300 {
+        if out.chars().count() >= max_chars {
             out.push('…');
             break;
         }
@@ -187,7 +196,7 @@ pub fn check_layout(bytes: &[u8]) -> std::result::Result<(), String> {
     }
     for i in 0..grids {
         let name = c.string("grid name")?;
-        let name = one_line(&String::from_utf8_lossy(name));
+        let name = quoted_name(&String::from_utf8_lossy(name));
         c.string("grid type")?;
         c.string("grid instance parent")?;
         let start = c.pos;

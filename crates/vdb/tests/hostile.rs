@@ -22,7 +22,8 @@ fn read_cleanly(path: &Path) -> bool {
             let text = e.to_string();
             let name = path.file_name().unwrap().to_str().unwrap();
             assert!(text.contains(name), "{text}");
-            assert!(!text.contains('\n') && text.len() < 600, "not one short line: {} bytes: {text:.200}", text.len());
+            let chars = text.chars().count();
+            assert!(!text.contains('\n') && chars < 600, "not one short line: {chars} characters: {text:.200}");
             false
         }
     }
