@@ -29,7 +29,8 @@ corpus="$root/target/fuzz-corpus/$target"; artifacts="$root/target/fuzz-artifact
 mkdir -p "$corpus" "$artifacts"
 extra=()
 [ "$target" = vdb_unguarded ] && extra=(-fork=1 -ignore_crashes=1 -ignore_ooms=1 -ignore_timeouts=1)
-export ASAN_OPTIONS=detect_leaks=0:allocator_may_return_null=1
+# The child guard's address-space cap is off under ASan (its shadow memory): cap allocations.
+export ASAN_OPTIONS=detect_leaks=0:allocator_may_return_null=1:max_allocation_size_mb=1024
 nice -n 19 "$CARGO_TARGET_DIR/$triple/release/fuzz_$target" "${extra[@]}" \
   -max_total_time=$((minutes * 60)) -rss_limit_mb=3072 -timeout=30 -print_final_stats=1 \
   -artifact_prefix="$artifacts/" "$corpus" "fuzz/corpus/$target"

@@ -5,14 +5,18 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
+#include <sys/mman.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
 #include <cerrno>
 #include <chrono>
 #include <cstring>
+#include <fstream>
 #include <istream>
+#include <mutex>
 #include <stdexcept>
 #include <streambuf>
 
@@ -33,6 +37,11 @@
 extern "C" void __sanitizer_set_death_callback(void (*callback)(void)) __attribute__((weak));
 
 namespace dentsim::vdb {
+
+// OpenVDB's file I/O takes its type registries' locks. A fork copies only the forking thread, so
+// a lock another thread held at that moment would stay locked in the child forever: every file
+// read and write here, and every fork, holds this one mutex.
+static std::mutex io_mutex;
 
 GridList::GridList(std::unique_ptr<Impl> i) : impl(std::move(i)) {}
 GridList::~GridList() = default;
@@ -84,6 +93,7 @@ std::unique_ptr<LevelSet> GridList::take(size_t i) {
 }
 
 void GridList::write_file(rust::Str path) const {
+  std::lock_guard<std::mutex> lock(io_mutex);
   openvdb::io::File file{std::string(path)};
   file.write(impl->grids);
   file.close();
@@ -108,9 +118,16 @@ struct BytesBuf : std::streambuf {
 };
 }  // namespace
 
+static std::unique_ptr<GridList> read_bytes_locked(rust::Slice<const uint8_t> bytes);
+
 // Every grid of a .vdb file's bytes, loaded whole (no delayed loading: a corrupt leaf must fail
 // here, not in a later cut). Throws on any error the reader detects.
 std::unique_ptr<GridList> read_bytes(rust::Slice<const uint8_t> bytes) {
+  std::lock_guard<std::mutex> lock(io_mutex);
+  return read_bytes_locked(bytes);
+}
+
+static std::unique_ptr<GridList> read_bytes_locked(rust::Slice<const uint8_t> bytes) {
   auto list = new_grid_list();
   BytesBuf buf(bytes.data(), bytes.size());
   std::istream is(&buf);
@@ -121,17 +138,29 @@ std::unique_ptr<GridList> read_bytes(rust::Slice<const uint8_t> bytes) {
 }
 
 // OpenVDB's reader trusts its input: some corrupt compressed data crashes it (SIGSEGV, double
-// free) or asks for absurd memory. So the bytes are first read in a forked child, whose address
-// space is capped at its current size + max_bytes, with a deadline; only a clean exit lets the
-// caller read them in this process. Returns "" when the child read them, else why not.
-rust::String probe_read(rust::Slice<const uint8_t> bytes, uint64_t max_bytes, uint32_t timeout_ms) {
+// free), overflows a heap buffer without crashing (bloscFromStream reads a chunk's stated size
+// before checking it), or asks for absurd memory. So only a forked child parses the file's bytes,
+// its address space capped at its current size + max_bytes, with a deadline; it writes the grids
+// it read back out with OpenVDB's writer (uncompressed) into `clean`, which is all this process
+// then parses. Returns "" when the child succeeded, else why not.
+rust::String probe_read(rust::Slice<const uint8_t> bytes, uint64_t max_bytes, uint32_t timeout_ms,
+                        std::vector<uint8_t>& clean) {
   ensure_initialized();
   int fds[2];
   if (pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error(std::string("pipe: ") + std::strerror(errno));
+  const int out_fd = memfd_create("dentsim-vdb-read", MFD_CLOEXEC);
+  if (out_fd < 0) {
+    close(fds[0]);
+    close(fds[1]);
+    throw std::runtime_error(std::string("memfd_create: ") + std::strerror(errno));
+  }
+  std::unique_lock<std::mutex> lock(io_mutex);
   const pid_t pid = fork();
+  if (pid != 0) lock.unlock();  // the child leaves it: it never takes it again
   if (pid < 0) {
     close(fds[0]);
     close(fds[1]);
+    close(out_fd);
     throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
   }
   if (pid == 0) {
@@ -157,7 +186,17 @@ rust::String probe_read(rust::Slice<const uint8_t> bytes, uint64_t max_bytes, ui
 #endif
     std::string msg;
     try {
-      read_bytes(bytes);
+      auto list = read_bytes_locked(bytes);
+      std::ofstream out("/proc/self/fd/" + std::to_string(out_fd), std::ios::binary | std::ios::trunc);
+      openvdb::io::Stream stream(out);
+      stream.setCompression(openvdb::io::COMPRESS_NONE);
+      stream.setGridStatsMetadataEnabled(false);  // its statistics would run TBB in the child
+      stream.write(list->impl->grids);
+      out.close();
+      if (!out) throw std::runtime_error("could not hand the grids back (out of memory?)");
+      // Never destroy a tree here: ~Tree runs a TBB parallel_for, and TBB's state copied from a
+      // threaded parent can wait forever. _exit frees everything.
+      list.release();
     } catch (const std::bad_alloc&) {
       msg = "reading it asks for more than " + std::to_string(max_bytes >> 20) + " MiB of memory (corrupt sizes, or over the memory limit)";
     } catch (const std::exception& e) {
@@ -200,6 +239,7 @@ rust::String probe_read(rust::Slice<const uint8_t> bytes, uint64_t max_bytes, ui
   int status = 0;
   while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
   }
+  if (timed_out || WIFSIGNALED(status)) close(out_fd);
   if (timed_out)
     return rust::String("OpenVDB's reader did not finish within " + std::to_string(timeout_ms / 1000) +
                         " s (corrupt file?)");
@@ -210,7 +250,25 @@ rust::String probe_read(rust::Slice<const uint8_t> bytes, uint64_t max_bytes, ui
     return rust::String(std::string("OpenVDB's reader crashed on it (signal ") + std::to_string(sig) + ", " +
                         strsignal(sig) + "): the file is corrupt");
   }
-  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) return rust::String();
+  if (WIFEXITED(status) && WEXITSTATUS(status) == 0) {
+    struct stat st {};
+    if (fstat(out_fd, &st) != 0 || st.st_size <= 0) {
+      close(out_fd);
+      return rust::String("OpenVDB's reader handed nothing back");
+    }
+    clean.resize(size_t(st.st_size));
+    off_t at = 0;
+    while (at < st.st_size) {
+      const ssize_t n = pread(out_fd, clean.data() + at, size_t(st.st_size - at), at);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) break;
+      at += n;
+    }
+    close(out_fd);
+    if (at != st.st_size) return rust::String("could not read back the grids OpenVDB's reader handed back");
+    return rust::String();
+  }
+  close(out_fd);
   if (msg.empty()) msg = "OpenVDB's reader failed (exit status " + std::to_string(WEXITSTATUS(status)) + ")";
   return rust::String(msg);
 }

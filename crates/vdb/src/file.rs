@@ -28,7 +28,7 @@ pub struct ReadLimits {
 
 impl Default for ReadLimits {
     fn default() -> Self {
-        ReadLimits { max_bytes: 8 << 30, min_voxel: 0.005, max_voxel: 5.0, timeout_s: 60 }
+        ReadLimits { max_bytes: 8 << 30, min_voxel: 0.005, max_voxel: 5.0, timeout_s: 20 }
     }
 }
 
@@ -52,9 +52,10 @@ pub fn read_file(path: &Path) -> Result<Vec<FileGrid>> {
 }
 
 /// Reads every grid of a .vdb file. A hostile file gives an error naming it, never a crash: the
-/// layout is checked against the file's size, OpenVDB reads the bytes first in a child process
-/// (its reader can crash on corrupt data), then here; each float grid's voxel size and box are
-/// checked against `limits`.
+/// layout is checked against the file's size, only a child process parses the file's bytes with
+/// OpenVDB (its reader can crash or overflow a buffer on corrupt data) and hands the grids back
+/// as OpenVDB's writer writes them; each float grid's voxel size and box are checked against
+/// `limits`.
 pub fn read_file_with(path: &Path, limits: &ReadLimits) -> Result<Vec<FileGrid>> {
     let file_err = |message: String| Error::File { path: path.to_owned(), message: one_line(&message) };
     let meta = std::fs::metadata(path).map_err(|e| file_err(e.to_string()))?;
@@ -76,11 +77,13 @@ pub fn read_bytes(bytes: &[u8], limits: &ReadLimits) -> std::result::Result<Vec<
     // its compressed file (inactive values are not stored), so the child gets far less than
     // the whole limit and fails fast.
     let probe_bytes = limits.max_bytes.min((1 << 30) + 64 * bytes.len() as u64);
-    let refused = ffi::probe_read(bytes, probe_bytes, timeout_ms).map_err(|e| e.what().to_owned())?;
+    let mut clean = cxx::CxxVector::<u8>::new();
+    let refused = ffi::probe_read(bytes, probe_bytes, timeout_ms, clean.pin_mut()).map_err(|e| one_line(e.what()))?;
     if !refused.is_empty() {
         return Err(one_line(&refused));
     }
-    read_unguarded(bytes, limits)
+    // What OpenVDB's writer made of the grids the child read: never the file's own bytes.
+    read_unguarded(clean.as_slice(), limits)
 }
 
 /// Reads in this process without the child's guard: for the C++ fuzz target and tests of the
