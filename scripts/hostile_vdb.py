@@ -2,14 +2,17 @@
 """Writes hostile .vdb files derived from valid ones and runs `dentsim prepare` (and `session`
 on a sample) on each, counting crashes (signal / abort), hangs (timeout) and outputs left behind.
 
-usage: scripts/hostile_vdb.py DENTSIM OUT_DIR OURS.vdb [--session-every N]
+usage: scripts/hostile_vdb.py DENTSIM OUT_DIR OURS.vdb [--session-every N] [--timeout S]
+A run longer than S seconds (default 120) is killed and counted as a hang.
 Needs /usr/bin/python3 with Debian's python3-openvdb (for the pyopenvdb-written base and the
 wrong-metadata cases)."""
 import os, random, subprocess, sys, json, time
 import pyopenvdb as vdb
 
 dentsim, out, ours = sys.argv[1], sys.argv[2], sys.argv[3]
-session_every = int(sys.argv[5]) if len(sys.argv) > 5 and sys.argv[4] == "--session-every" else 10
+opts = dict(zip(sys.argv[4::2], sys.argv[5::2]))
+session_every = int(opts.get("--session-every", 10))
+timeout = float(opts.get("--timeout", 120))
 os.makedirs(out, exist_ok=True)
 cases = []  # (name, path)
 
@@ -99,9 +102,9 @@ open(csv, "w").write("t,x,y,z,qw,qx,qy,qz\n0,0,0,4,1,0,0,0\n1,0,0,2,1,0,0,0\n")
 def run(args, dest):
     t0 = time.time()
     try:
-        r = subprocess.run(args, capture_output=True, timeout=120, env=dict(os.environ, RUST_BACKTRACE="0"))
+        r = subprocess.run(args, capture_output=True, timeout=timeout, env=dict(os.environ, RUST_BACKTRACE="0"))
     except subprocess.TimeoutExpired:
-        return {"rc": "hang", "secs": 120}
+        return {"rc": "hang", "secs": timeout}
     err = r.stderr.decode("utf-8", "replace")
     crashed = r.returncode < 0 or r.returncode in (134, 139) or "panicked" in err or "terminate called" in err
     left = sorted(os.listdir(dest)) if os.path.isdir(dest) else []
@@ -110,16 +113,19 @@ def run(args, dest):
             "left": left}
 
 results = []
+progress = open(os.path.join(out, "progress.jsonl"), "w")
 for i, (name, p) in enumerate(cases):
     dest = os.path.join(out, "out_" + name)
     r = run([dentsim, "prepare", p, "--path", csv, "--burr", "round:1.0", "--out", dest], dest)
     r.update(name=name, cmd="prepare")
     results.append(r)
+    progress.write(json.dumps(r) + "\n"); progress.flush()
     if i % session_every == 0 or name.startswith(("meta", "voxel", "bbox", "class", "type", "background")):
         dest = os.path.join(out, "sess_" + name)
         r = run([dentsim, "session", "--tissues", p, "--device", "scripted:" + csv, "--out", dest], dest)
         r.update(name=name, cmd="session")
         results.append(r)
+        progress.write(json.dumps(r) + "\n"); progress.flush()
 
 json.dump(results, open(os.path.join(out, "results.json"), "w"), indent=1)
 accepted = [r for r in results if r["rc"] == 0]
