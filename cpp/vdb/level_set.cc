@@ -172,16 +172,22 @@ void LevelSet::csg_intersection(const LevelSet& other) {
   openvdb::tools::csgIntersection(*impl->grid, *tool);
 }
 
+// insertMeta throws TypeError when the key exists with another type (a file's string
+// "stiffness_n_per_mm" overwritten by a number): replace, do not merge.
 void LevelSet::set_meta_string(rust::Str key, rust::Str value) {
+  impl->grid->removeMeta(std::string(key));
   impl->grid->insertMeta(std::string(key), openvdb::StringMetadata(std::string(value)));
 }
 void LevelSet::set_meta_f64(rust::Str key, double value) {
+  impl->grid->removeMeta(std::string(key));
   impl->grid->insertMeta(std::string(key), openvdb::DoubleMetadata(value));
 }
 void LevelSet::set_meta_i64(rust::Str key, int64_t value) {
+  impl->grid->removeMeta(std::string(key));
   impl->grid->insertMeta(std::string(key), openvdb::Int64Metadata(value));
 }
 void LevelSet::set_meta_vec3(rust::Str key, std::array<float, 3> v) {
+  impl->grid->removeMeta(std::string(key));
   impl->grid->insertMeta(std::string(key), openvdb::Vec3SMetadata(openvdb::Vec3s(v[0], v[1], v[2])));
 }
 

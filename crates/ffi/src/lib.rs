@@ -187,6 +187,15 @@ fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, St
     }
 }
 
+/// Prefixes an error about one of the proxy's files with that property's label in ParaView, so
+/// the message names both the property to fix and the file (which the error text holds).
+fn name_property(message: String, files: &[(&str, &str)]) -> String {
+    match files.iter().find(|(_, path)| !path.is_empty() && message.contains(path)) {
+        Some((label, _)) => format!("{label}: {message}"),
+        None => message,
+    }
+}
+
 fn default_stroke() -> StrokeParams {
     let d = PhantomStroke::default();
     StrokeParams { voxel_size_mm: d.voxel_size_mm, burr_diameter_mm: d.burr_diameter_mm, start_mm: d.start_mm, end_mm: d.end_mm }
@@ -209,7 +218,7 @@ pub fn phantom_stroke(params: &StrokeParams) -> Result<Vec<TissueSurface>, Strin
 pub fn read_tissues(path: &str) -> Result<Vec<TissueSurface>, String> {
     guarded("read tissues", || {
         let model = dentsim_sim::tissues::model::TissueModel::load(std::path::Path::new(path), &TissueTable::default())
-            .map_err(|e| e.to_string())?;
+            .map_err(|e| name_property(e.to_string(), &[("File Name", path)]))?;
         unchanged_surfaces(&model)
     })
 }
@@ -304,7 +313,8 @@ pub fn prepare_tissues(
             burr: &params.burr,
             force_n: params.force_n,
         };
-        let prepared = request.run(&TissueTable::default()).map_err(|e| e.to_string())?;
+        let files = [("Tissues File", params.tissues_path.as_str()), ("Tool Path File (CSV)", params.path_csv.as_str())];
+        let prepared = request.run(&TissueTable::default()).map_err(|e| name_property(e.to_string(), &files))?;
         cut_surfaces(&prepared.model, &prepared.tissues)
     })
 }
@@ -372,7 +382,9 @@ pub fn start_session(params: &SessionParams) -> Result<Box<HapticSession>, Strin
             realtime: params.realtime,
             mesher_hz: dentsim_sim::session::threads::DEFAULT_MESHER_HZ,
         };
-        let live = LiveSession::start_with_burr(&request, &params.burr).map_err(|e| e.to_string())?;
+        let scripted = params.device.strip_prefix("scripted:").unwrap_or("");
+        let files = [("Tissues File", params.tissues_path.as_str()), ("Scripted Path (CSV)", scripted)];
+        let live = LiveSession::start_with_burr(&request, &params.burr).map_err(|e| name_property(e.to_string(), &files))?;
         Ok(Box::new(HapticSession { live, last: LiveState::default() }))
     })
 }

@@ -87,6 +87,18 @@ pub enum MetaValue {
     Vec3(Vec3),
 }
 
+impl MetaValue {
+    /// The type's name as OpenVDB's metadata calls it (for messages).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            MetaValue::String(_) => "a string",
+            MetaValue::F64(_) => "a number",
+            MetaValue::I64(_) => "an integer",
+            MetaValue::Vec3(_) => "a vec3",
+        }
+    }
+}
+
 impl LevelSet {
     /// An empty level set (everything outside).
     pub fn new(voxel_size: f64, half_width: f64) -> Result<Self> {

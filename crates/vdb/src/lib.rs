@@ -12,7 +12,7 @@ mod peer;
 mod sys;
 
 pub use error::{Error, Result};
-pub use file::{read_file, write_file, FileGrid};
+pub use file::{check_layout, read_bytes, read_file, read_file_with, read_unguarded, write_file, FileGrid, ReadLimits};
 pub use level_set::{block_counts, CutStats, DensePatch, DenseVolume, IndexBox, LevelSet, Measure, MetaValue, Reader, VoxelChange};
 pub use mesh::TriMesh;
 

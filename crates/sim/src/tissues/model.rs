@@ -168,18 +168,51 @@ impl TissueModel {
                 return Err(file_err(format!("grid '{}' is not a tissue (known: {})", g.name, known.join(", "))));
             };
             let mut props = defaults.clone();
-            let number = |key: &str| match grid.meta(key) {
-                Ok(MetaValue::F64(v)) => Some(v),
-                Ok(MetaValue::I64(v)) => Some(v as f64),
-                _ => None,
+            // A key the file holds must have the expected type; absent keys keep the table's value.
+            let present = grid.meta_keys();
+            let meta = |key: &str| -> Result<Option<MetaValue>> {
+                if !present.iter().any(|k| k == key) {
+                    return Ok(None);
+                }
+                grid.meta(key).map(Some).map_err(|e| file_err(format!("grid '{}': {e}", g.name)))
             };
-            if let Some(v) = number("stiffness_n_per_mm") { props.stiffness_n_per_mm = v; }
-            if let Some(v) = number("damping_n_s_per_mm") { props.damping_n_s_per_mm = v; }
-            if let Some(v) = number("removal_rate_mm3_per_n_s") { props.removal_rate_mm3_per_n_s = v; }
-            if let Some(v) = number("opacity") { props.opacity = v as f32; }
-            if let Ok(MetaValue::Vec3(c)) = grid.meta("colour") { props.colour = c.to_array(); }
-            if let Some(v) = number("fdi_tooth") { model.fdi_tooth = Some(v as u8); }
-            if let Ok(MetaValue::String(s)) = grid.meta("source") { model.source = s; }
+            let wrong = |key: &str, v: &MetaValue, expected: &str| {
+                file_err(format!("grid '{}' metadata '{key}' is {}, expected {expected}", g.name, v.kind()))
+            };
+            let number = |key: &str| -> Result<Option<f64>> {
+                match meta(key)? {
+                    None => Ok(None),
+                    Some(MetaValue::F64(v)) => Ok(Some(v)),
+                    Some(MetaValue::I64(v)) => Ok(Some(v as f64)),
+                    Some(v) => Err(wrong(key, &v, "a number")),
+                }
+            };
+            if let Some(v) = number("stiffness_n_per_mm")? { props.stiffness_n_per_mm = v; }
+            if let Some(v) = number("damping_n_s_per_mm")? { props.damping_n_s_per_mm = v; }
+            if let Some(v) = number("removal_rate_mm3_per_n_s")? { props.removal_rate_mm3_per_n_s = v; }
+            if let Some(v) = number("opacity")? { props.opacity = v as f32; }
+            match meta("colour")? {
+                None => {}
+                Some(MetaValue::Vec3(c)) => props.colour = c.to_array(),
+                Some(v) => return Err(wrong("colour", &v, "vec3s")),
+            }
+            if let Some(v) = number("fdi_tooth")? {
+                let fdi = (v.fract() == 0.0 && (0.0..=255.0).contains(&v)).then_some(v as u8);
+                match fdi.filter(|&f| dentsim_cbct::segment::valid_fdi(f)) {
+                    Some(f) => model.fdi_tooth = Some(f),
+                    None => return Err(file_err(format!("grid '{}' metadata 'fdi_tooth' is {v}, expected an FDI tooth number", g.name))),
+                }
+            }
+            if let Some(v) = meta("tissue")?.filter(|v| !matches!(v, MetaValue::String(_))) {
+                return Err(wrong("tissue", &v, "a string"));
+            }
+            match meta("source")? {
+                None => {}
+                Some(MetaValue::String(s)) => model.source = s,
+                Some(v) => return Err(wrong("source", &v, "a string")),
+            }
+            // The same rules as the tissue table's TOML.
+            props.check().map_err(|e| file_err(format!("grid '{}' metadata: {e}", g.name)))?;
             model.push(props, grid).map_err(|e| file_err(e.to_string()))?;
         }
         // OpenVDB hands grids back in name order; keep the table's (label) order instead.

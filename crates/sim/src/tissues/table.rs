@@ -16,6 +16,28 @@ pub struct TissueProps {
     pub removal_rate_mm3_per_n_s: f64,
 }
 
+impl TissueProps {
+    /// The rules every source of properties keeps (a TOML table, a .vdb grid's metadata); the
+    /// error names the tissue and field.
+    pub fn check(&self) -> std::result::Result<(), String> {
+        let field = |f: &str| format!("tissue '{}' field {f}", self.name);
+        let non_negative = [
+            ("stiffness_n_per_mm", self.stiffness_n_per_mm),
+            ("damping_n_s_per_mm", self.damping_n_s_per_mm),
+            ("removal_rate_mm3_per_n_s", self.removal_rate_mm3_per_n_s),
+        ];
+        for (name, v) in non_negative {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("{} is {v}, expected a finite number >= 0", field(name)));
+            }
+        }
+        if !(0.0..=1.0).contains(&self.opacity) || self.colour.iter().any(|c| !(0.0..=1.0).contains(c)) {
+            return Err(format!("{} and colour must lie in 0..1", field("opacity")));
+        }
+        Ok(())
+    }
+}
+
 /// All tissues dentsim knows, in label order.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TissueTable {
@@ -95,20 +117,7 @@ impl TissueTable {
     fn validate(&self, source_name: &str) -> Result<()> {
         let err = |message: String| Error::TissueTable { source_name: source_name.into(), message };
         for (i, t) in self.tissues.iter().enumerate() {
-            let field = |f: &str| format!("tissue '{}' field {f}", t.name);
-            let non_negative = [
-                ("stiffness_n_per_mm", t.stiffness_n_per_mm),
-                ("damping_n_s_per_mm", t.damping_n_s_per_mm),
-                ("removal_rate_mm3_per_n_s", t.removal_rate_mm3_per_n_s),
-            ];
-            for (name, v) in non_negative {
-                if !(v.is_finite() && v >= 0.0) {
-                    return Err(err(format!("{} is {v}, expected a finite number >= 0", field(name))));
-                }
-            }
-            if !(0.0..=1.0).contains(&t.opacity) || t.colour.iter().any(|c| !(0.0..=1.0).contains(c)) {
-                return Err(err(format!("{} and colour must lie in 0..1", field("opacity"))));
-            }
+            t.check().map_err(err)?;
             if let Some(other) = self.tissues[..i].iter().find(|o| o.name == t.name || o.label == t.label) {
                 return Err(err(format!("tissues '{}' and '{}' share a name or label", other.name, t.name)));
             }
