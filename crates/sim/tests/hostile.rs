@@ -57,7 +57,7 @@ fn sessions_longer_than_the_cap_are_refused_before_anything_is_written() {
 fn tissues_with_absurdly_fine_voxels_are_refused_by_session_and_prepare_before_allocating() {
     let dir = tempfile::tempdir().unwrap();
     // A 0.05 mm ball at 0.001 mm voxels: a small file, but a 1 mm burr spans a thousand voxels
-    // and its cut buffers would need tens of GiB.
+    // and its cut buffers would need tens of GiB. The reader refuses the voxel size first.
     let mut model = TissueModel::new("fine", None);
     let props = TissueTable::default().get("enamel").unwrap().clone();
     model.push(props, dentsim_vdb::LevelSet::sphere(glam::DVec3::ZERO, 0.05, 0.001, 3.0).unwrap()).unwrap();
@@ -65,10 +65,17 @@ fn tissues_with_absurdly_fine_voxels_are_refused_by_session_and_prepare_before_a
     model.save(&fine).unwrap();
     let out = dir.path().join("out");
     let e = run_session_to_dir(&request(&fine, &out, "hand:start=0:0:5,target=0:0:2,duration=0.2"), &mut |_, _| {}).unwrap_err().to_string();
-    assert!(e.contains("fine.vdb") && e.contains("0.001 mm voxels") && e.contains("memory cap"), "{e}");
+    assert!(e.contains("fine.vdb") && e.contains("voxel size 0.001"), "{e}");
     assert!(!out.exists(), "nothing written");
-    // prepare: the same check, here with a cap the capsule itself exceeds.
+    // Voxels the reader takes but a cap cannot hold: the session's memory check, before
+    // allocating, names the file, the voxel size and the cap.
     let start = capsule(dir.path());
+    let e = run_session_to_dir_with(&request(&start, &out, "hand:start=0:0:5,target=0:0:2,duration=0.2"), &Limits::new(1e-4, 60.0).unwrap(), &mut |_, _| {})
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("start.vdb") && e.contains("0.08 mm voxels") && e.contains("memory cap"), "{e}");
+    assert!(!out.exists(), "nothing written");
+    // prepare: the same check.
     let csv = dir.path().join("p.csv");
     std::fs::write(&csv, "t,x,y,z,qw,qx,qy,qz,cut\n0,0,0,6,1,0,0,0,1\n0.5,0,0,4.5,1,0,0,0,1\n").unwrap();
     let options = PrepareOptions { limits: Limits::new(1e-4, 3600.0).unwrap(), ..PrepareOptions::default() };
