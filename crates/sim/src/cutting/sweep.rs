@@ -65,6 +65,8 @@ pub struct Sweep {
     centres: Vec<DVec3>,
     /// World ends of the head's axis at each sub-pose (non-round heads; see [`Burr::axis_extent`]).
     axes: Vec<(DVec3, DVec3)>,
+    /// The capsules about those axes the rows reach, readied.
+    capsules: Vec<LineCapsule>,
     pub substeps: usize,
     /// Index box of the patch (inclusive).
     pub lo: IVec3,
@@ -287,7 +289,7 @@ impl Sweep {
         // the band (and its slack; a hair narrower for rounding): they keep the cut-off.
         let inner = match start_free {
             Some(_) => burr.inner_capsule(band + f64::from(DONE_SLACK) + 1e-5).map(|(za, zb, r)| {
-                (from.transform_point3(DVec3::new(0.0, 0.0, za)), from.transform_point3(DVec3::new(0.0, 0.0, zb)), r - 1e-6)
+                LineCapsule::new(from.transform_point3(DVec3::new(0.0, 0.0, za)), from.transform_point3(DVec3::new(0.0, 0.0, zb)), r - 1e-6)
             }),
             None => None,
         };
@@ -301,11 +303,14 @@ impl Sweep {
             _ => None,
         };
         let (nx, ny) = (dims.x as usize, dims.y as usize);
+        let inv_voxel = 1.0 / voxel;
         let rows = &mut self.rows;
         rows.reserve(nx);
         // With the start free, the start pose changes nothing: rows reach as the later ones do.
         let first_pose = usize::from(start_free.is_some());
-        let (centres, axes) = (&self.centres[first_pose..], &self.axes[first_pose.min(self.axes.len())..]);
+        self.capsules.clear();
+        self.capsules.extend(self.axes[first_pose.min(self.axes.len())..].iter().map(|(a, b)| LineCapsule::new(*a, *b, axis_reach)));
+        let (centres, capsules) = (&self.centres[first_pose..], &self.capsules);
         for k in lo.z..=hi.z {
             let z = f64::from(k) * voxel;
             for j in lo.y..=hi.y {
@@ -330,10 +335,10 @@ impl Sweep {
                         x_hi = x_hi.max(a.x.max(b.x) + half);
                     }
                 }
-                if !axes.is_empty() {
+                if !capsules.is_empty() {
                     let (mut c_lo, mut c_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                    for (a, b) in axes {
-                        if let Some((l, h)) = line_capsule_x(y, z, *a, *b, axis_reach) {
+                    for capsule in capsules {
+                        if let Some((l, h)) = capsule.x_interval(y, z) {
                             c_lo = c_lo.min(l);
                             c_hi = c_hi.max(h);
                         }
@@ -355,8 +360,8 @@ impl Sweep {
                         continue;
                     }
                 }
-                let i_lo = ((x_lo / voxel).floor() as i32).max(lo.x).max(m_lo);
-                let i_hi = ((x_hi / voxel).ceil() as i32).min(hi.x).min(m_hi);
+                let i_lo = floor_i32(x_lo * inv_voxel).max(lo.x).max(m_lo);
+                let i_hi = ceil_i32(x_hi * inv_voxel).min(hi.x).min(m_hi);
                 if i_lo > i_hi {
                     continue;
                 }
@@ -406,7 +411,7 @@ impl Sweep {
                         // of the run its bounding ball (grown by the cut-off) reaches.
                         let gap = behind.map_or((1, 0), |b| b.row_gap(y, z, voxel));
                         // And with the start free, the voxels deep inside its head.
-                        let deep = inner.and_then(|(a, b, r)| line_capsule_x(y, z, a, b, r)).map_or((1, 0), |(l, h)| whole_voxels(l, h, voxel));
+                        let deep = inner.and_then(|c| c.x_interval(y, z)).map_or((1, 0), |(l, h)| whole_voxels(l, h, voxel));
                         let runs = runs_outside(i_lo, i_hi, [gap, deep]);
                         for (a, b) in runs {
                             if a > b {
@@ -426,8 +431,8 @@ impl Sweep {
                                     continue;
                                 }
                                 let half = (reach * reach - d2).sqrt();
-                                let ka = (((c.x - half) / voxel).floor() as i32).max(a);
-                                let kb = (((c.x + half) / voxel).ceil() as i32).min(b);
+                                let ka = floor_i32((c.x - half) * inv_voxel).max(a);
+                                let kb = ceil_i32((c.x + half) * inv_voxel).min(b);
                                 if ka > kb {
                                     continue;
                                 }
@@ -552,10 +557,25 @@ impl Behind {
     }
 }
 
+/// ⌊x⌋ as an index (saturating; NaN gives 0). The baseline x86-64 target has no rounding
+/// instruction, and `f64::floor` there is a library call on every row.
+#[inline(always)]
+fn floor_i32(x: f64) -> i32 {
+    let t = x as i32;
+    if f64::from(t) > x { t.saturating_sub(1) } else { t }
+}
+
+/// ⌈x⌉ as an index (saturating; NaN gives 0).
+#[inline(always)]
+fn ceil_i32(x: f64) -> i32 {
+    let t = x as i32;
+    if f64::from(t) < x { t.saturating_add(1) } else { t }
+}
+
 /// The voxel indices (inclusive) whose centres lie within [lo, hi] mm, a hair inside (saturating
 /// casts keep infinities in range).
 fn whole_voxels(lo: f64, hi: f64, voxel: f64) -> (i32, i32) {
-    ((lo / voxel + 1e-9).ceil() as i32, (hi / voxel - 1e-9).floor() as i32)
+    (ceil_i32(lo / voxel + 1e-9), floor_i32(hi / voxel - 1e-9))
 }
 
 /// The runs (inclusive; empty ones have lo > hi) of [lo, hi] outside both `cuts` (inclusive
@@ -591,61 +611,84 @@ fn same_pose(a: &DAffine3, b: &DAffine3) -> bool {
     a.abs_diff_eq(*b, 1e-12)
 }
 
-/// Distance in the (y, z) plane from a point to a segment: a lower bound on the 3-D distance
-/// from any point of the row through it.
-/// The x-interval of the line {(x, y, z)} within distance `r` of the segment from `a` to `b`
-/// (a capsule is convex: the hull of its two balls' and its cylinder's intervals), if any.
-fn line_capsule_x(y: f64, z: f64, a: DVec3, b: DVec3, r: f64) -> Option<(f64, f64)> {
-    // A hair wider, so rounding never drops a tangent point.
-    let r = r * (1.0 + 1e-12) + 1e-9;
-    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    let mut take = |l: f64, h: f64| {
-        if l <= h {
-            lo = lo.min(l);
-            hi = hi.max(h);
-        }
-    };
-    for c in [a, b] {
-        let d2 = (y - c.y) * (y - c.y) + (z - c.z) * (z - c.z);
-        if d2 <= r * r {
-            let half = (r * r - d2).sqrt();
-            take(c.x - half, c.x + half);
-        }
-    }
-    let u = b - a;
-    let len = u.length();
-    if len > 0.0 {
-        let u = u / len;
-        // p(x) − a = w + x·X; the distance to the axis line is quadratic in x, its foot linear.
-        let w = DVec3::new(-a.x, y - a.y, z - a.z);
-        let wu = w.dot(u);
-        let (qa, qb, qc) = (1.0 - u.x * u.x, 2.0 * (w.x - wu * u.x), w.length_squared() - wu * wu - r * r);
-        let (mut l, mut h) = if qa > 1e-12 {
-            let disc = qb * qb - 4.0 * qa * qc;
-            if disc < 0.0 {
-                (1.0, 0.0)
-            } else {
-                let s = disc.sqrt();
-                ((-qb - s) / (2.0 * qa), (-qb + s) / (2.0 * qa))
-            }
-        } else if qc <= 0.0 {
-            (f64::NEG_INFINITY, f64::INFINITY)
-        } else {
-            (1.0, 0.0)
-        };
-        // Within the slab 0 ≤ (p − a)·u ≤ len.
-        if u.x.abs() > 1e-12 {
-            let (s0, s1) = ((-wu) / u.x, (len - wu) / u.x);
-            l = l.max(s0.min(s1));
-            h = h.min(s0.max(s1));
-        } else if !(0.0..=len).contains(&wu) {
-            h = l - 1.0;
-        }
-        take(l, h);
-    }
-    (lo <= hi).then_some((lo, hi))
+/// The capsule of radius `r` about the segment from `a` to `b`, readied for
+/// [`LineCapsule::x_interval`] along many rows: what does not depend on the row (the axis
+/// direction, the quadratic's leading term, the slab's divisions) once.
+#[derive(Clone, Copy, Debug)]
+struct LineCapsule {
+    a: DVec3,
+    b: DVec3,
+    /// The radius a hair wider (rounding never drops a tangent point), squared.
+    r2: f64,
+    /// Unit axis and length (len 0: the two balls alone).
+    u: DVec3,
+    len: f64,
+    qa: f64,
+    inv_2qa: f64,
+    inv_ux: f64,
 }
 
+impl LineCapsule {
+    fn new(a: DVec3, b: DVec3, r: f64) -> Self {
+        let r = r * (1.0 + 1e-12) + 1e-9;
+        let len = (b - a).length();
+        let u = if len > 0.0 { (b - a) / len } else { DVec3::ZERO };
+        let qa = 1.0 - u.x * u.x;
+        LineCapsule { a, b, r2: r * r, u, len, qa, inv_2qa: 1.0 / (2.0 * qa), inv_ux: 1.0 / u.x }
+    }
+
+    /// The x-interval of the line {(x, y, z)} within the capsule (convex: the hull of its two
+    /// balls' and its cylinder's intervals), if any.
+    fn x_interval(&self, y: f64, z: f64) -> Option<(f64, f64)> {
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let mut take = |l: f64, h: f64| {
+            if l <= h {
+                lo = lo.min(l);
+                hi = hi.max(h);
+            }
+        };
+        for c in [self.a, self.b] {
+            let d2 = (y - c.y) * (y - c.y) + (z - c.z) * (z - c.z);
+            if d2 <= self.r2 {
+                let half = (self.r2 - d2).sqrt();
+                take(c.x - half, c.x + half);
+            }
+        }
+        if self.len > 0.0 {
+            let (a, u) = (self.a, self.u);
+            // p(x) − a = w + x·X; the distance to the axis line is quadratic in x, its foot linear.
+            let w = DVec3::new(-a.x, y - a.y, z - a.z);
+            let wu = w.dot(u);
+            let (qb, qc) = (2.0 * (w.x - wu * u.x), w.length_squared() - wu * wu - self.r2);
+            let (mut l, mut h) = if self.qa > 1e-12 {
+                let disc = qb * qb - 4.0 * self.qa * qc;
+                if disc < 0.0 {
+                    (1.0, 0.0)
+                } else {
+                    let s = disc.sqrt();
+                    ((-qb - s) * self.inv_2qa, (-qb + s) * self.inv_2qa)
+                }
+            } else if qc <= 0.0 {
+                (f64::NEG_INFINITY, f64::INFINITY)
+            } else {
+                (1.0, 0.0)
+            };
+            // Within the slab 0 ≤ (p − a)·u ≤ len.
+            if u.x.abs() > 1e-12 {
+                let (s0, s1) = (-wu * self.inv_ux, (self.len - wu) * self.inv_ux);
+                l = l.max(s0.min(s1));
+                h = h.min(s0.max(s1));
+            } else if !(0.0..=self.len).contains(&wu) {
+                h = l - 1.0;
+            }
+            take(l, h);
+        }
+        (lo <= hi).then_some((lo, hi))
+    }
+}
+
+/// Distance in the (y, z) plane from a point to a segment: a lower bound on the 3-D distance
+/// from any point of the row through it.
 fn segment_distance_2d(p: (f64, f64), a: (f64, f64), b: (f64, f64)) -> f64 {
     let (abx, aby) = (b.0 - a.0, b.1 - a.1);
     let len2 = abx * abx + aby * aby;
@@ -664,6 +707,16 @@ fn segment_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The fast floor and ceiling agree with the library's wherever an i32 holds the result.
+    #[test]
+    fn index_floor_and_ceiling_match_the_library() {
+        for x in [-3.5, -3.0, -2.9999999, -0.5, -0.0, 0.0, 0.25, 1.0, 7.999999999, 1e6 + 0.5, -1e6 - 0.5] {
+            assert_eq!(floor_i32(x), x.floor() as i32, "{x}");
+            assert_eq!(ceil_i32(x), x.ceil() as i32, "{x}");
+        }
+        assert_eq!((floor_i32(f64::INFINITY), ceil_i32(f64::NEG_INFINITY)), (i32::MAX, i32::MIN));
+    }
 
     /// Runs cover exactly the indices of the range outside the cuts.
     #[test]
@@ -695,7 +748,7 @@ mod tests {
             for yi in -30..=30 {
                 for zi in -30..=60 {
                     let (y, z) = (yi as f64 * 0.1, zi as f64 * 0.1);
-                    let got = line_capsule_x(y, z, a, b, r);
+                    let got = LineCapsule::new(a, b, r).x_interval(y, z);
                     let within = |reach: f64| -> Vec<f64> {
                         (-400..=400).map(|i| i as f64 * 0.01).filter(|x| segment_distance(DVec3::new(*x, y, z), a, b) <= reach).collect()
                     };
