@@ -51,3 +51,24 @@ fn openvdb_crashers_are_errors_through_the_guarded_reader() {
         assert!(!e.contains('\n') && e.chars().count() <= 301, "{}: {e:.300}", f.display());
     }
 }
+
+/// fuzz_scan's crashers: DICOM files whose garbled headers made dicom-rs allocate gigabytes (an
+/// abort under a memory limit). Each is now refused before dicom-rs reads it, naming the element
+/// whose length runs past the end of the file.
+#[test]
+fn dicom_headers_stating_lengths_past_the_file_are_refused_before_reading() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let found = files(&root.join("crashers/scan"));
+    assert!(!found.is_empty(), "the kept crashers of the scan target");
+    let dir = tempfile::tempdir().unwrap();
+    for f in found {
+        let data = std::fs::read(&f).unwrap();
+        // The target's first byte picks the reader; these are DICOM (0).
+        assert_eq!(data[0] % 4, 0, "{}", f.display());
+        let path = dir.path().join("input.dcm");
+        std::fs::write(&path, &data[1..]).unwrap();
+        let e = dentsim_cbct::read(&path, &dentsim_cbct::ReadOptions::default()).unwrap_err().to_string();
+        assert!(e.contains("input.dcm") && e.contains("states a length"), "{}: {e}", f.display());
+        dentsim_fuzz::scan(&data);
+    }
+}

@@ -91,6 +91,15 @@ fn fg_present(obj: &InMemDicomObject, frame: usize, group: Tag, attr: Tag) -> Op
     fg_lookup(obj, frame, group, attr, present)
 }
 
+/// The file's element lengths fit in it (see `dicom_lengths`); a file that cannot be read passes,
+/// for dicom-rs to say why.
+fn checked_lengths(path: &Path) -> std::result::Result<(), String> {
+    match std::fs::read(path) {
+        Ok(bytes) => crate::dicom_lengths::check(&bytes),
+        Err(_) => Ok(()),
+    }
+}
+
 fn need<T>(v: Option<T>, path: &Path, field: &str, expected: &str) -> Result<T> {
     v.ok_or_else(|| Error::field(path, field, format!("missing or unreadable; expected {expected}")))
 }
@@ -182,7 +191,7 @@ pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     // Files that were not DICOM at all: named in warnings, and blamed for a gap they sit in.
     let mut skipped: Vec<(PathBuf, String)> = Vec::new();
     for f in &files {
-        let obj = match OpenFileOptions::new().read_until(tags::PIXEL_DATA).open_file(f) {
+        let obj = match checked_lengths(f).and_then(|()| OpenFileOptions::new().read_until(tags::PIXEL_DATA).open_file(f).map_err(|e| e.to_string())) {
             Ok(o) => o,
             Err(e) => {
                 if single {
@@ -330,7 +339,9 @@ pub fn read_dicom(path: &Path, opts: &ReadOptions) -> Result<Volume> {
     by_file.sort();
     by_file.dedup();
     for file in &by_file {
-        let obj = OpenFileOptions::new().open_file(file).map_err(|e| Error::Dicom { path: file.clone(), message: format!("cannot read: {e}") })?;
+        let obj = checked_lengths(file)
+            .and_then(|()| OpenFileOptions::new().open_file(file).map_err(|e| e.to_string()))
+            .map_err(|e| Error::Dicom { path: file.clone(), message: format!("cannot read: {e}") })?;
         if obj.element_opt(tags::PIXEL_DATA).ok().flatten().is_none() {
             return Err(Error::NonImage { path: file.clone() });
         }

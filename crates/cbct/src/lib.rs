@@ -4,6 +4,7 @@
 
 pub mod calibrate;
 pub mod dicom;
+mod dicom_lengths;
 pub mod error;
 pub mod metaimage;
 pub mod nifti;
