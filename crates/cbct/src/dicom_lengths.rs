@@ -76,7 +76,13 @@ impl Walk<'_> {
             (pos + 8, self.u32(pos + 4))
         } else {
             let vr = &b[pos + 4..pos + 6];
-            if matches!(vr, b"OB" | b"OD" | b"OF" | b"OL" | b"OV" | b"OW" | b"SQ" | b"SV" | b"UC" | b"UN" | b"UR" | b"UT" | b"UV") {
+            // A 2-byte length only for the VRs that have one; any other, unknown ones included,
+            // is read as UN is (dicom-rs does: a garbled VR took a 4-byte length of gigabytes).
+            let two_byte_length = matches!(
+                vr,
+                b"AE" | b"AS" | b"AT" | b"CS" | b"DA" | b"DS" | b"DT" | b"FL" | b"FD" | b"IS" | b"LO" | b"LT" | b"PN" | b"SH" | b"SL" | b"SS" | b"ST" | b"TM" | b"UI" | b"UL" | b"US"
+            );
+            if !two_byte_length {
                 if pos + 12 > b.len() {
                     return Err(short());
                 }
