@@ -123,6 +123,12 @@ impl Sweep {
         self.material.reserve(blocks.saturating_sub(self.material.len()));
         self.material_rows.reserve(blocks.saturating_sub(self.material_rows.len()));
         self.rows.reserve(side as usize);
+        // The sub-poses of a translation that long (rotation adds more; those still grow once).
+        let poses = (travel_mm.max(0.0) / (2.0 * GAP_VOXELS * voxel)).ceil().min(MAX_SUBSTEPS as f64) as usize + 2;
+        self.inverse.reserve(poses.saturating_sub(self.inverse.len()));
+        self.centres.reserve(poses.saturating_sub(self.centres.len()));
+        self.axes.reserve(poses.saturating_sub(self.axes.len()));
+        self.capsules.reserve(poses.saturating_sub(self.capsules.len()));
         [side; 3]
     }
 
