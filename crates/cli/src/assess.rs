@@ -4,15 +4,19 @@ use std::path::PathBuf;
 
 use anyhow::Result;
 use dentsim_sim::assess::Kind;
-use dentsim_sim::assess::report::{assess_to_dir, ASSESSED_SURFACE, ASSESSMENT_JSON, ASSESSMENT_PNG};
+use dentsim_sim::assess::report::{assess_session_to_dir, assess_to_dir, ASSESSED_SURFACE, ASSESSMENT_JSON, ASSESSMENT_PNG};
 
 #[derive(clap::Args)]
 pub struct Args {
     /// The prepared tissues (.vdb), or an output folder of prepare, session or replay.
     prepared: PathBuf,
-    /// The tissues before the preparation (.vdb or a folder holding tissues.vdb).
+    /// The tissues before the preparation (.vdb or a folder holding tissues.vdb); for a session's
+    /// or replay's folder, by default the tissues it started from.
     #[arg(long)]
-    original: PathBuf,
+    original: Option<PathBuf>,
+    /// Assess a session's folder as it stood after this tick (its log replayed that far).
+    #[arg(long)]
+    tick: Option<u64>,
     /// A reference preparation of the same tooth to compare against (.vdb or folder).
     #[arg(long)]
     reference: Option<PathBuf>,
@@ -46,7 +50,24 @@ pub fn run(args: &Args) -> Result<()> {
         (PrepKind::Crown, axis) => Kind::Crown { axis: axis.map(glam::DVec3::from_array) },
     };
     let limits = crate::args::limits(args.memory, None)?;
-    let a = assess_to_dir(&args.prepared, &args.original, args.reference.as_deref(), kind, &table, &limits, &args.out)?;
+    let session = dentsim_sim::assess::session::SessionFolder::open(&args.prepared)?.is_some();
+    let a = match (&args.original, session) {
+        (_, true) => assess_session_to_dir(&args.prepared, args.original.as_deref(), args.reference.as_deref(), args.tick, kind, &table, &limits, &args.out)?,
+        (Some(original), false) if args.tick.is_none() => assess_to_dir(&args.prepared, original, args.reference.as_deref(), kind, &table, &limits, &args.out)?,
+        (_, false) if args.tick.is_some() => {
+            anyhow::bail!("--tick: {} is not a session or replay output folder (no summary.json or replay.json)", args.prepared.display())
+        }
+        _ => anyhow::bail!("--original is needed: {} is not a session or replay output folder", args.prepared.display()),
+    };
+    if let Some(p) = &a.session {
+        match (p.tick, p.t_s) {
+            (Some(tick), Some(t)) => println!("session {} at tick {tick} ({t:.3} s)", p.folder),
+            _ => println!("session {} at its end", p.folder),
+        }
+        for line in p.guidance.lines() {
+            println!("{line}");
+        }
+    }
     for (name, t) in &a.tissues {
         let vs = match (t.overcut_mm3, t.undercut_mm3) {
             (Some(o), Some(u)) => format!("  overcut {o:>8.3} mm³  undercut {u:>8.3} mm³"),

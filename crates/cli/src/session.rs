@@ -65,6 +65,9 @@ pub fn run(args: &Args) -> Result<()> {
             t.volumes.name, t.volumes.removed_mm3, t.contact_s, t.content_hash
         );
     }
+    for line in summary.guidance.lines() {
+        println!("{line}");
+    }
     println!("wrote {} ({LOG_NAME}, {TISSUES_NAME}, meshes, {SUMMARY_NAME})", args.out.display());
     Ok(())
 }

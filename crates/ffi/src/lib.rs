@@ -87,6 +87,16 @@ mod bridge {
         contact_tissue: String,
         /// Changes whenever a tissue surface changes.
         mesh_generation: u64,
+        /// Live guidance: tissue left between the burr head and the pulp (mm; negative inside
+        /// it; NaN when the pulp is far or absent).
+        remaining_dentin_mm: f64,
+        /// 0 clear, 1 within the thin-dentin threshold of the pulp, 2 in the pulp.
+        warning_level: u8,
+        /// The threshold (mm; 0 when guidance is off).
+        thin_dentin_mm: f64,
+        /// Cuts that left too little dentin, and cuts into the pulp, so far (events).
+        thin_dentin_events: u64,
+        pulp_exposure_events: u64,
     }
 
     /// A planned preparation ("Dental Preparation"): tissues, tool path, burr, force.
@@ -401,8 +411,13 @@ impl HapticSession {
                 burr_position_mm: s.proxy.to_array(),
                 device_position_mm: s.pose.translation.to_array(),
                 force_n: s.force.to_array(),
-                contact_tissue: s.tissue.unwrap_or_default(),
+                contact_tissue: s.tissue.clone().unwrap_or_default(),
                 mesh_generation: s.mesh_generation,
+                remaining_dentin_mm: if s.clearance_mm.is_finite() { s.clearance_mm } else { f64::NAN },
+                warning_level: s.warning_level(),
+                thin_dentin_mm: s.guidance.thin_dentin_mm,
+                thin_dentin_events: s.guidance.thin_dentin_events,
+                pulp_exposure_events: s.guidance.pulp_exposure_events,
             })
         })
     }

@@ -65,3 +65,39 @@ fn cut_mode_tick_does_not_allocate() {
     assert!(contacts == 500 && removed > 0.01);
     assert_eq!(after - before, 0);
 }
+
+/// Live guidance reads the pulp's field at the burr's samples every tick: nothing allocates
+/// either, in touch and in cut mode, while the burr is within the field's reach of the pulp.
+#[test]
+fn guided_ticks_near_the_pulp_do_not_allocate() {
+    use dentsim_devices::{DeviceState, BUTTON_CUT};
+    use dentsim_sim::tissues::capsule::CapsuleTooth;
+    use dentsim_sim::tissues::table::TissueTable;
+    use glam::DAffine3;
+    let _serial = alloc_counter::exclusive();
+    // The capsule tooth: pulp top at z = 2.0 under dentin from z = 3.5.
+    let mut model = CapsuleTooth::default().build(0.08, &TissueTable::default()).unwrap();
+    let mut core = HapticCore::new(HapticParams::default(), &model).unwrap();
+    core.prepare_guidance(&model).unwrap();
+    core.prepare_cutting(&mut model).unwrap();
+    assert!(core.guides());
+    let at = |z: f64, buttons| DeviceState { pose: DAffine3::from_translation(DVec3::new(0.0, 0.0, z)), buttons, rpm: 200_000.0 };
+    // Warm up by cutting a shaft toward the pulp (the proxy stops about 0.5 mm over it), then
+    // count touch and cut ticks there.
+    let mut proxy = DVec3::ZERO;
+    for k in 0..6000 {
+        proxy = core.tick(&mut model, &at((5.6 - k as f64 * 0.001).max(2.3), BUTTON_CUT), false).unwrap().proxy;
+    }
+    println!("proxy at z = {:.3} after the warm-up", proxy.z);
+    let before = alloc_counter::allocations();
+    let mut near = 0;
+    for k in 0..1000 {
+        let buttons = if k % 2 == 0 { BUTTON_CUT } else { 0 };
+        let out = core.tick(&mut model, &at(2.3, buttons), false).unwrap();
+        near += usize::from(out.clearance_mm < 1.0);
+    }
+    let after = alloc_counter::allocations();
+    println!("1000 guided ticks, {near} within 1 mm of the pulp, {} allocations", after - before);
+    assert!(near > 900, "{near}");
+    assert_eq!(after - before, 0);
+}

@@ -8,6 +8,7 @@ pub fn dentsim(args: &[&str]) -> Output {
 
 /// Down into the capsule tooth's occlusal enamel, along x 1.5 mm to 2.9 mm deep, and out (the
 /// last row lifts off without cutting).
+#[allow(dead_code)]
 pub const GROOVE: &str = "t,x,y,z,qw,qx,qy,qz,rpm,cut\n\
 0,-2.0,0,5.5,1,0,0,0,200000,1\n\
 0.5,-2.0,0,4.0,1,0,0,0,200000,1\n\

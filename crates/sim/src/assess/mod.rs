@@ -8,6 +8,7 @@
 pub mod crown;
 pub mod nearest;
 pub mod report;
+pub mod session;
 
 use std::collections::BTreeMap;
 
@@ -30,8 +31,8 @@ pub enum Kind {
 
 /// The tissues that make up the tooth whose outer surface is prepared.
 pub const TOOTH_TISSUES: [&str; 4] = ["enamel", "dentin", "pulp", "caries"];
-/// Dentin left over the pulp below this (mm) is graded as too thin (Murray 2003, REFERENCE.md).
-pub const MIN_REMAINING_DENTIN_MM: f64 = 0.5;
+/// Dentin left over the pulp below this (mm) is graded as too thin: the live warning's threshold.
+pub const MIN_REMAINING_DENTIN_MM: f64 = crate::haptics::guidance::THIN_DENTIN_MM;
 
 /// One tissue's figures.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -93,6 +94,9 @@ pub struct Assessment {
     /// Points of the prepared surface that the preparation cut (inside the original tooth).
     pub cut_surface_points: usize,
     pub grades: Vec<Grade>,
+    /// When a session was assessed: its folder, the tick, and its live guidance events.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub session: Option<session::SessionPoint>,
     /// The prepared tooth's surface, with per point: signed deviation from the reference (0
     /// without one) and depth below the original surface (0 where uncut). Not in the JSON.
     #[serde(skip)]
@@ -328,7 +332,7 @@ pub fn assess_as(prepared: &TissueModel, original: &TissueModel, reference: Opti
         cut_depth_mm: cut_depth.iter().map(|d| *d as f32).collect(),
         mesh,
     };
-    Ok(Assessment { tissues, deviation_mm, min_remaining_dentin_mm: min_dentin, pulp_exposed, pulp_exposed_area_mm2: exposed_area, crown, cut_surface_points, grades, surface })
+    Ok(Assessment { tissues, deviation_mm, min_remaining_dentin_mm: min_dentin, pulp_exposed, pulp_exposed_area_mm2: exposed_area, crown, cut_surface_points, grades, session: None, surface })
 }
 
 /// The mesh with only the points its triangles use, re-indexed.

@@ -7,10 +7,11 @@ use std::sync::OnceLock;
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
 
+use crate::assess::session::{SessionFolder, SessionPoint};
 use crate::assess::{assess_as, Assessment, Kind};
 use crate::error::{Error, Result};
 use crate::limits::Limits;
-use crate::tissues::export::{all_or_nothing, write_vtp_with, TISSUES_NAME};
+use crate::tissues::export::{all_or_nothing, write_vtp_with, REPLAY_SUMMARY_NAME, SUMMARY_NAME, TISSUES_NAME};
 use crate::tissues::model::TissueModel;
 use crate::tissues::table::TissueTable;
 
@@ -34,10 +35,58 @@ pub fn assess_to_dir(prepared: &Path, original: &Path, reference: Option<&Path>,
     let load = |p: &Path| TissueModel::load(&tissues_file(p), table);
     let (prepared, original) = (load(prepared)?, load(original)?);
     let reference = reference.map(load).transpose()?;
+    assess_models_to_dir(&prepared, &original, reference.as_ref(), kind, table, limits, out, None)
+}
+
+/// [`assess_to_dir`] of a session's or replay's output folder: the starting tissues default to
+/// the ones its summary names, and at `tick` the preparation is the log replayed through that
+/// tick. `assessment.json` then says which session and tick, with its guidance events.
+#[allow(clippy::too_many_arguments)]
+pub fn assess_session_to_dir(
+    folder: &Path,
+    original: Option<&Path>,
+    reference: Option<&Path>,
+    tick: Option<u64>,
+    kind: Kind,
+    table: &TissueTable,
+    limits: &Limits,
+    out: &Path,
+) -> Result<Assessment> {
+    let session = SessionFolder::open(folder)?.ok_or_else(|| Error::File {
+        path: folder.to_owned(),
+        message: format!("not a session or replay output folder (no {SUMMARY_NAME} or {REPLAY_SUMMARY_NAME})"),
+    })?;
+    let original = original.map(tissues_file).unwrap_or_else(|| session.original.clone());
+    if !original.is_file() {
+        return Err(Error::File { path: original, message: format!("the starting tissues of {} are not there: pass --original", folder.display()) });
+    }
+    if tick.is_some() {
+        // The replay holds the log and a second model.
+        let log_bytes = std::fs::metadata(&session.log).map_err(|e| Error::File { path: session.log.clone(), message: e.to_string() })?.len();
+        limits.check_memory(&format!("session log {}", session.log.display()), log_bytes.saturating_mul(3))?;
+    }
+    let (prepared, point) = session.prepared(&original, tick, table)?;
+    let original = TissueModel::load(&original, table)?;
+    let reference = reference.map(|p| TissueModel::load(&tissues_file(p), table)).transpose()?;
+    assess_models_to_dir(&prepared, &original, reference.as_ref(), kind, table, limits, out, Some(point))
+}
+
+#[allow(clippy::too_many_arguments)]
+fn assess_models_to_dir(
+    prepared: &TissueModel,
+    original: &TissueModel,
+    reference: Option<&TissueModel>,
+    kind: Kind,
+    table: &TissueTable,
+    limits: &Limits,
+    out: &Path,
+    session: Option<SessionPoint>,
+) -> Result<Assessment> {
     // Each grid once more for the set operations and about as much again for its surface.
-    let bytes: u64 = [Some(&prepared), Some(&original), reference.as_ref()].into_iter().flatten().flat_map(|m| &m.tissues).map(|t| 3 * t.grid.mem_bytes()).sum();
+    let bytes: u64 = [Some(prepared), Some(original), reference].into_iter().flatten().flat_map(|m| &m.tissues).map(|t| 3 * t.grid.mem_bytes()).sum();
     limits.check_memory("assessing the three tissue models", bytes)?;
-    let assessment = assess_as(&prepared, &original, reference.as_ref(), kind)?;
+    let mut assessment = assess_as(prepared, original, reference, kind)?;
+    assessment.session = session;
     all_or_nothing(out, |staged| {
         let json = serde_json::to_string_pretty(&assessment).map_err(|e| crate::error::invalid(ASSESSMENT_JSON, e.to_string()))?;
         dentsim_atomic::write(&staged.join(ASSESSMENT_JSON), |w| w.write_all(json.as_bytes()))?;

@@ -3,10 +3,12 @@
 pub mod contact;
 pub mod filter;
 pub mod force;
+pub mod guidance;
 pub mod proxy;
 pub mod tick;
 pub mod watchdog;
 
 pub use contact::{BurrSamples, ContactPoint, ContactQuery};
 pub use filter::FilterSpec;
+pub use guidance::{GuidanceParams, PulpClearance, THIN_DENTIN_MM};
 pub use tick::{HapticCore, HapticParams, TickOutput, CUT_TOLERANCE_MM, STROKE_CONTINUES_VOXELS, TOUCH_VOXELS};

@@ -14,6 +14,7 @@ use crate::error::{invalid, Result};
 use crate::haptics::contact::{BurrSamples, ContactQuery};
 use crate::haptics::filter::{clamp_length, FilterSpec, ForceFilter};
 use crate::haptics::force::{contact_force, ContactForce, Mechanics, MAX_TISSUES};
+use crate::haptics::guidance::{GuidanceParams, PulpClearance};
 use crate::haptics::proxy::Proxy;
 use crate::haptics::watchdog::{Watchdog, WatchdogParams};
 use crate::tissues::model::TissueModel;
@@ -64,6 +65,9 @@ pub struct HapticParams {
     /// depth per cut, so batching cut it by the interval.)
     pub cut_interval_ticks: u32,
     pub watchdog: WatchdogParams,
+    /// Live guidance over the pulp (absent from logs written before it: the default).
+    #[serde(default)]
+    pub guidance: GuidanceParams,
 }
 
 impl Default for HapticParams {
@@ -79,6 +83,7 @@ impl Default for HapticParams {
             reference_rpm: crate::cutting::removal::REFERENCE_RPM,
             cut_interval_ticks: 1,
             watchdog: WatchdogParams::default(),
+            guidance: GuidanceParams::default(),
         }
     }
 }
@@ -101,6 +106,12 @@ pub struct TickOutput {
     pub changed_voxels: u64,
     /// Watchdog gain applied (1 = normal).
     pub gain: f64,
+    /// Thinnest tissue between the burr head (where it cut, else at the proxy) and the pulp it
+    /// started with (mm; negative inside it; infinite when far or without guidance; see
+    /// [`PulpClearance`]).
+    pub clearance_mm: f64,
+    /// [`crate::haptics::guidance::FLAG_THIN_DENTIN`] or `FLAG_PULP_EXPOSED` when this tick cut that close.
+    pub guidance: u32,
 }
 
 /// The haptic state that lives across ticks.
@@ -122,11 +133,14 @@ pub struct HapticCore {
     ticks: u64,
     /// Volume removed per tissue so far (mm³), model order.
     pub removed_mm3: Vec<f64>,
+    /// See [`HapticCore::prepare_guidance`].
+    clearance: Option<PulpClearance>,
 }
 
 impl HapticCore {
     pub fn new(params: HapticParams, model: &TissueModel) -> Result<Self> {
         params.filter.validate().map_err(|m| invalid("force filter", m))?;
+        params.guidance.validate()?;
         let positive = |v: f64| v.is_finite() && v > 0.0;
         if !positive(params.period_s) || !positive(params.max_step_mm) || !positive(params.reference_rpm) {
             return Err(invalid("haptic parameters", "period_s, max_step_mm and reference_rpm must be > 0"));
@@ -164,6 +178,7 @@ impl HapticCore {
             touch_mm: (TOUCH_VOXELS * model.voxel_size().unwrap_or(0.05)).max(samples_gap),
             ticks: 0,
             removed_mm3: vec![0.0; model.tissues.len()],
+            clearance: None,
             burr,
             params,
         })
@@ -176,6 +191,18 @@ impl HapticCore {
         model.voxelize_for_cutting()?;
         self.cutter.prepare(model, &self.burr, self.params.max_step_mm);
         Ok(())
+    }
+
+    /// Readies live guidance on `model` as it is now (the session's start): the pulp's distance
+    /// field ([`PulpClearance`]). Without it (or without a pulp) ticks report no clearance.
+    pub fn prepare_guidance(&mut self, model: &TissueModel) -> Result<()> {
+        self.clearance = PulpClearance::new(model, &self.params.guidance, self.query.samples.len())?;
+        Ok(())
+    }
+
+    /// Whether guidance measures clearance (a pulp and a threshold above 0).
+    pub fn guides(&self) -> bool {
+        self.clearance.is_some()
     }
 
     /// Whether cuts measure the volume they remove (the default; see [`Cutter::set_measure`]).
@@ -255,7 +282,7 @@ impl HapticCore {
             velocity,
             axis_point,
         );
-        let mut out = TickOutput { raw, proxy, gain: 1.0, ..Default::default() };
+        let mut out = TickOutput { raw, proxy, gain: 1.0, clearance_mm: f64::INFINITY, ..Default::default() };
 
         if state.cutting() && raw.tissue.is_some() {
             self.accumulate_advance(model, &pose, &raw, state.rpm);
@@ -263,6 +290,12 @@ impl HapticCore {
         let interval = u64::from(self.params.cut_interval_ticks.max(1));
         if self.pending_advance > 0.0 && self.ticks % interval == 0 {
             out.removed_mm3 = self.cut(model, &pose, &mut out)?;
+        }
+        if let Some(clearance) = self.clearance.as_mut() {
+            // Where the head cut to, else where it rests.
+            let head = out.cut.map_or(at_proxy, |(_, to)| to);
+            out.clearance_mm = clearance.measure(&self.query.samples, &head);
+            out.guidance = self.params.guidance.classify(out.clearance_mm, out.cut.is_some());
         }
 
         let max_force = self.params.profile.max_force_n;

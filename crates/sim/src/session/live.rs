@@ -16,6 +16,7 @@ use crate::burr::Burr;
 use crate::error::{invalid, Result};
 use crate::haptics::filter::FilterSpec;
 use crate::haptics::tick::{HapticParams, DEFAULT_BURR};
+use crate::session::guidance::GuidanceReport;
 use crate::session::log::TickRecord;
 use crate::session::threads::{Session, SessionOptions};
 use crate::tissues::capsule::CapsuleTooth;
@@ -54,6 +55,25 @@ pub struct LiveState {
     pub running: bool,
     /// Bumped whenever any tissue surface changes.
     pub mesh_generation: u64,
+    /// Thinnest tissue between the burr head and the pulp (mm; negative inside it; infinite
+    /// when far or without a pulp).
+    pub clearance_mm: f64,
+    /// The guidance events so far.
+    pub guidance: GuidanceReport,
+}
+
+impl LiveState {
+    /// What a display warns of now: 0 clear, 1 within the thin-dentin threshold of the pulp,
+    /// 2 in the pulp.
+    pub fn warning_level(&self) -> u8 {
+        if self.clearance_mm < 0.0 {
+            2
+        } else if self.clearance_mm < self.guidance.thin_dentin_mm {
+            1
+        } else {
+            0
+        }
+    }
 }
 
 pub struct LiveSession {
@@ -72,6 +92,7 @@ pub struct LiveSession {
     start_mesh_volumes: Vec<f64>,
     /// Removed volume per tissue from the grids, once the session has ended.
     removed: Option<Vec<f64>>,
+    guidance: GuidanceReport,
 }
 
 impl LiveSession {
@@ -126,6 +147,7 @@ impl LiveSession {
             start_volumes,
             start_mesh_volumes,
             removed: None,
+            guidance: GuidanceReport::default(),
         })
     }
 
@@ -136,6 +158,7 @@ impl LiveSession {
             if let Some(r) = session.latest() {
                 self.last = Some(r);
             }
+            self.guidance = session.guidance();
             if session.is_running() {
                 for ((mine, seen), new) in self.meshes.iter_mut().zip(&mut self.frames).zip(session.latest_frames()) {
                     let Some(new) = new else { continue };
@@ -153,6 +176,7 @@ impl LiveSession {
                 }
                 self.meshes = outcome.model.tissues.iter().map(|t| surface(&t.grid).map(Arc::new)).collect::<Result<Vec<_>>>()?;
                 self.removed = Some(outcome.removed_mm3.iter().map(|(_, v)| *v).collect());
+                self.guidance = outcome.guidance.clone();
                 self.generation += 1;
             }
         }
@@ -166,6 +190,8 @@ impl LiveSession {
             tissue: usize::try_from(r.tissue).ok().and_then(|i| self.props.get(i)).map(|p| p.name.clone()),
             running: self.session.is_some(),
             mesh_generation: self.generation,
+            clearance_mm: r.clearance_mm,
+            guidance: self.guidance.clone(),
         })
     }
 

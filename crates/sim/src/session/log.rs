@@ -5,8 +5,9 @@
 //! ([`LogHeader`]: everything a replay needs besides the tissues), then one fixed-size
 //! [`TickRecord`] of [`RECORD_BYTES`] per tick. From version 4 the header JSON is followed by its
 //! CRC-32 and each record by the CRC-32 of its bytes, so a flipped byte or appended garbage is
-//! an error naming the tick. A crash leaves at worst a partial last record, which the reader
-//! reports and drops.
+//! an error naming the tick. From version 5 a record ends with the tick's clearance over the pulp
+//! (live guidance) and its flags may carry the guidance bits. A crash leaves at worst a partial
+//! last record, which the reader reports and drops.
 use std::io::{Read, Write};
 use std::path::Path;
 
@@ -23,16 +24,22 @@ pub const MAGIC: [u8; 8] = *b"DSIMLOG\0";
 /// diameter.
 /// (The oldest version this build still reads; logs are written as [`WRITTEN_VERSION`].)
 pub const VERSION: u32 = 3;
-/// 4: a CRC-32 after the header and after each record ([`CHECKED_RECORD_BYTES`]).
-pub const WRITTEN_VERSION: u32 = 4;
-pub const RECORD_BYTES: usize = 8 + 8 + 8 + 12 * 8 + 4 + 8 + 3 * 8 + 3 * 8 + 3 * 8 + 4 + 4 + 8;
-
-/// Flag bits of a record.
+/// 4: a CRC-32 after the header and after each record.
+pub const CHECKED_VERSION: u32 = 4;
+/// 5: each record ends with the tick's clearance over the pulp ([`TickRecord::clearance_mm`]).
+pub const WRITTEN_VERSION: u32 = 5;
+/// A record of versions 3 and 4.
+pub const V4_RECORD_BYTES: usize = 8 + 8 + 8 + 12 * 8 + 4 + 8 + 3 * 8 + 3 * 8 + 3 * 8 + 4 + 4 + 8;
+/// A record as written ([`WRITTEN_VERSION`]).
+pub const RECORD_BYTES: usize = V4_RECORD_BYTES + 8;
+/// A written record and its CRC-32.
 pub const CHECKED_RECORD_BYTES: usize = RECORD_BYTES + 4;
 
+/// Flag bits of a record (and [`crate::haptics::guidance::GUIDANCE_FLAGS`]).
 pub const FLAG_CUT: u32 = 1;
 pub const FLAG_MISSED: u32 = 2;
 pub const FLAG_DEVICE_FAULT: u32 = 4;
+pub use crate::haptics::guidance::{FLAG_PULP_EXPOSED, FLAG_THIN_DENTIN};
 
 /// What a replay needs to redo the session's ticks.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -51,7 +58,7 @@ pub struct LogHeader {
 }
 
 /// One tick as logged.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TickRecord {
     pub tick: u64,
     /// Session time the device was polled at (s; tick × period).
@@ -69,6 +76,29 @@ pub struct TickRecord {
     pub flags: u32,
     /// Voxels the tick's cut changed, over all tissues.
     pub changed_voxels: u64,
+    /// [`crate::haptics::TickOutput::clearance_mm`]: infinite when far from the pulp, without
+    /// guidance, or in logs before version 5.
+    pub clearance_mm: f64,
+}
+
+impl Default for TickRecord {
+    fn default() -> Self {
+        TickRecord {
+            tick: 0,
+            t_s: 0.0,
+            wall_s: 0.0,
+            pose: DAffine3::default(),
+            buttons: 0,
+            rpm: 0.0,
+            force: DVec3::ZERO,
+            torque: DVec3::ZERO,
+            proxy: DVec3::ZERO,
+            tissue: 0,
+            flags: 0,
+            changed_voxels: 0,
+            clearance_mm: f64::INFINITY,
+        }
+    }
 }
 
 impl TickRecord {
@@ -93,9 +123,17 @@ impl TickRecord {
         w.u32(self.tissue as u32);
         w.u32(self.flags);
         w.u64(self.changed_voxels);
+        w.f64(self.clearance_mm);
     }
 
+    /// A record as written; see [`TickRecord::decode_v4`] for older logs.
     pub fn decode(buf: &[u8; RECORD_BYTES]) -> Self {
+        let clearance_mm = f64::from_le_bytes(buf[V4_RECORD_BYTES..].try_into().expect("8 bytes"));
+        TickRecord { clearance_mm, ..Self::decode_v4(buf[..V4_RECORD_BYTES].try_into().expect("v4 record")) }
+    }
+
+    /// A record of a version 3 or 4 log (no clearance: infinite).
+    pub fn decode_v4(buf: &[u8; V4_RECORD_BYTES]) -> Self {
         let mut r = Reader { buf, at: 0 };
         let tick = r.u64();
         let t_s = r.f64();
@@ -120,6 +158,7 @@ impl TickRecord {
             tissue: r.u32() as i32,
             flags: r.u32(),
             changed_voxels: r.u64(),
+            clearance_mm: f64::INFINITY,
         }
     }
 }
@@ -146,7 +185,7 @@ impl Cursor<'_> {
 }
 
 struct Reader<'a> {
-    buf: &'a [u8; RECORD_BYTES],
+    buf: &'a [u8; V4_RECORD_BYTES],
     at: usize,
 }
 
@@ -190,6 +229,8 @@ pub fn write_record(out: &mut impl Write, record: &TickRecord) -> std::io::Resul
 /// A log read back.
 #[derive(Clone, Debug)]
 pub struct SessionLog {
+    /// The format version the file was written in (guidance is logged from 5 on).
+    pub version: u32,
     pub header: LogHeader,
     pub records: Vec<TickRecord>,
     /// Bytes of a partial last record that were dropped (a crash while writing).
@@ -206,7 +247,7 @@ impl SessionLog {
         Self::parse(&bytes).map_err(err)
     }
 
-    /// Checks every record of a version-4 log: its CRC, and that ticks increase. Errors name the
+    /// Checks every record of a version-4 or later log: its CRC, and that ticks increase. Errors name the
     /// tick (the one expected where the decoded one cannot be trusted) and the byte offset.
     pub fn parse(bytes: &[u8]) -> std::result::Result<Self, String> {
         if bytes.is_empty() {
@@ -217,10 +258,11 @@ impl SessionLog {
             return Err("not a dentsim session log (bad magic)".into());
         }
         let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
-        if version != VERSION && version != WRITTEN_VERSION {
-            return Err(format!("log version {version}, this build reads version {VERSION} (unchecked) and version {WRITTEN_VERSION}"));
+        if !(VERSION..=WRITTEN_VERSION).contains(&version) {
+            return Err(format!("log version {version}, this build reads versions {VERSION} (unchecked) to {WRITTEN_VERSION}"));
         }
-        let checked = version == WRITTEN_VERSION;
+        let checked = version >= CHECKED_VERSION;
+        let record_bytes = if version >= 5 { RECORD_BYTES } else { V4_RECORD_BYTES };
         let len = u32::from_le_bytes(bytes[12..16].try_into().expect("4 bytes")) as usize;
         let body = bytes.get(16..16 + len).ok_or("header runs past the end of the file")?;
         let mut at = 16 + len;
@@ -233,14 +275,17 @@ impl SessionLog {
         }
         let header: LogHeader = serde_json::from_slice(body).map_err(|e| format!("header: {e}"))?;
         let rest = &bytes[at..];
-        let size = if checked { CHECKED_RECORD_BYTES } else { RECORD_BYTES };
+        let size = record_bytes + if checked { 4 } else { 0 };
         let mut records: Vec<TickRecord> = Vec::with_capacity(rest.len() / size);
         for (i, chunk) in rest.chunks_exact(size).enumerate() {
-            let record = TickRecord::decode(chunk[..RECORD_BYTES].try_into().expect("exact chunk"));
+            let record = match chunk[..record_bytes].try_into() {
+                Ok(v5) => TickRecord::decode(v5),
+                Err(_) => TickRecord::decode_v4(chunk[..record_bytes].try_into().expect("exact chunk")),
+            };
             if checked {
                 let expected_tick = records.last().map_or(0, |r| r.tick + 1);
                 let offset = at + i * size;
-                if crc32fast::hash(&chunk[..RECORD_BYTES]).to_le_bytes() != chunk[RECORD_BYTES..] {
+                if crc32fast::hash(&chunk[..record_bytes]).to_le_bytes() != chunk[record_bytes..] {
                     return Err(format!(
                         "record {i} (tick {expected_tick} expected, byte {offset}): checksum mismatch: a changed byte or data appended after the last tick"
                     ));
@@ -251,7 +296,7 @@ impl SessionLog {
             }
             records.push(record);
         }
-        Ok(SessionLog { header, records, truncated_bytes: rest.len() % size })
+        Ok(SessionLog { version, header, records, truncated_bytes: rest.len() % size })
     }
 
     /// A note on a partial last record (a session killed while writing), naming the last whole tick.
@@ -281,8 +326,9 @@ mod tests {
             torque: DVec3::new(-1.0, 0.0, 7.0),
             proxy: DVec3::new(0.5, 0.25, 0.125),
             tissue: -1,
-            flags: FLAG_CUT | FLAG_MISSED,
+            flags: FLAG_CUT | FLAG_MISSED | FLAG_THIN_DENTIN,
             changed_voxels: 3047,
+            clearance_mm: 0.37,
         };
         let mut buf = [0u8; RECORD_BYTES];
         r.encode(&mut buf);
@@ -376,8 +422,36 @@ mod tests {
         let r = TickRecord { tick: 0, rpm: 5.0, ..TickRecord::default() };
         let mut buf = [0u8; RECORD_BYTES];
         r.encode(&mut buf);
-        bytes.extend_from_slice(&buf);
+        bytes.extend_from_slice(&buf[..V4_RECORD_BYTES]);
         let log = SessionLog::parse(&bytes).unwrap();
         assert_eq!((log.header, log.records), (header, vec![r]));
+    }
+
+    #[test]
+    fn version_4_logs_still_read_checked_without_clearance() {
+        let header = test_header(1.0);
+        let json = serde_json::to_vec(&header).unwrap();
+        let mut bytes = MAGIC.to_vec();
+        bytes.extend_from_slice(&CHECKED_VERSION.to_le_bytes());
+        bytes.extend_from_slice(&(json.len() as u32).to_le_bytes());
+        bytes.extend_from_slice(&json);
+        bytes.extend_from_slice(&crc32fast::hash(&json).to_le_bytes());
+        let records: Vec<TickRecord> = (0..3).map(|tick| TickRecord { tick, rpm: 7.0, clearance_mm: 0.2, ..TickRecord::default() }).collect();
+        for r in &records {
+            let mut buf = [0u8; RECORD_BYTES];
+            r.encode(&mut buf);
+            bytes.extend_from_slice(&buf[..V4_RECORD_BYTES]);
+            bytes.extend_from_slice(&crc32fast::hash(&buf[..V4_RECORD_BYTES]).to_le_bytes());
+        }
+        let log = SessionLog::parse(&bytes).unwrap();
+        assert_eq!(log.records.len(), 3);
+        for (got, want) in log.records.iter().zip(&records) {
+            // A version-4 record has no clearance: read as infinite, the rest as written.
+            assert_eq!(*got, TickRecord { clearance_mm: f64::INFINITY, ..*want });
+        }
+        let mut bad = bytes.clone();
+        let last = bad.len() - 6;
+        bad[last] ^= 1;
+        assert!(SessionLog::parse(&bad).unwrap_err().contains("tick 2 expected"));
     }
 }

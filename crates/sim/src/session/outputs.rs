@@ -18,7 +18,8 @@ use crate::haptics::filter::FilterSpec;
 use crate::haptics::tick::HapticParams;
 use crate::session::log::SessionLog;
 use crate::session::plot::plot_forces;
-use crate::session::replay::{replay_with_progress, write_force_csv};
+use crate::session::guidance::GuidanceReport;
+use crate::session::replay::{replay_until, write_force_csv};
 use crate::session::threads::{Session, SessionOptions};
 use crate::tissues::export::{write_model, FORCES_CSV_NAME, FORCES_PNG_NAME, LOG_NAME, REPLAY_SUMMARY_NAME, SUMMARY_NAME};
 use crate::tissues::model::{TissueModel, TissueVolumes};
@@ -74,6 +75,9 @@ pub struct SessionSummary {
     pub max_force_n: f64,
     pub log: String,
     pub tissues: Vec<TissueSummary>,
+    /// Cuts too close to the pulp (absent from summaries written before live guidance).
+    #[serde(default)]
+    pub guidance: GuidanceReport,
 }
 
 /// `replay.json`: the replay's figures and whether they equal the session's.
@@ -87,9 +91,23 @@ pub struct ReplaySummary {
     pub ticks_cut_differently: u64,
     /// Bytes of a partial last record the log reader dropped (a crash while writing).
     pub truncated_log_bytes: usize,
-    /// True/false when the session's `summary.json` sat beside the log; `None` otherwise.
+    /// True/false when the session's `summary.json` sat beside the log; `None` otherwise (or
+    /// when the replay stopped early).
     pub hashes_match_session: Option<bool>,
     pub tissues: Vec<TissueSummary>,
+    /// The tissues file the replay started from.
+    #[serde(default)]
+    pub tissues_file: String,
+    /// The last tick replayed when the replay stopped early (`--until-tick`).
+    #[serde(default)]
+    pub until_tick: Option<u64>,
+    /// The replayed ticks' guidance events.
+    #[serde(default)]
+    pub guidance: GuidanceReport,
+    /// Ticks whose replayed guidance differs from the log's; 0 for a faithful replay, `None`
+    /// for logs written before guidance was logged.
+    #[serde(default)]
+    pub ticks_guided_differently: Option<u64>,
 }
 
 fn hex(hash: u64) -> String {
@@ -234,6 +252,7 @@ pub fn run_session_to_dir_with(req: &SessionRequest, limits: &Limits, progress: 
             max_force_n: outcome.max_force_n,
             log: LOG_NAME.into(),
             tissues,
+            guidance: outcome.guidance.clone(),
         };
         write_json(&staged.join(SUMMARY_NAME), &summary)?;
         Ok(summary)
@@ -250,10 +269,30 @@ pub fn replay_to_dir(log_path: &Path, tissues: &Path, out: &Path, progress: &mut
 /// [`replay_to_dir`] within `limits`: the log's size (its records are held in memory) and the
 /// tissues' are checked against the memory cap before either is read whole.
 pub fn replay_to_dir_with(log_path: &Path, tissues: &Path, out: &Path, limits: &Limits, progress: &mut dyn FnMut(&str, f64)) -> Result<ReplaySummary> {
+    replay_to_dir_until(log_path, tissues, out, limits, None, progress)
+}
+
+/// [`replay_to_dir_with`] up to and including tick `until` (every tick for `None`): the outputs
+/// hold the tissues as they were at that tick, e.g. for `dentsim assess`.
+pub fn replay_to_dir_until(
+    log_path: &Path,
+    tissues: &Path,
+    out: &Path,
+    limits: &Limits,
+    until: Option<u64>,
+    progress: &mut dyn FnMut(&str, f64),
+) -> Result<ReplaySummary> {
     let log_bytes = std::fs::metadata(log_path).map_err(|e| Error::File { path: log_path.to_owned(), message: e.to_string() })?.len();
     // Records decode to about 1.3 times their size, and the replay keeps a force sample per tick.
     limits.check_memory(&format!("session log {}", log_path.display()), log_bytes.saturating_mul(3))?;
     let log = SessionLog::read(log_path)?;
+    if let Some(tick) = until {
+        let last = log.records.last().map(|r| r.tick);
+        if last.is_none_or(|l| tick > l) {
+            let logged = last.map_or("no ticks".to_string(), |l| format!("ticks 0 to {l}"));
+            return Err(Error::File { path: log_path.to_owned(), message: format!("--until-tick {tick}: the log has {logged}") });
+        }
+    }
     let model = load_tissues(tissues)?;
     let burr = crate::burr::Burr::parse(&log.header.params.burr).map_err(|e| Error::File { path: log_path.to_owned(), message: e.to_string() })?;
     check_session_memory(limits, tissues, &model, &burr, &log.header.params)?;
@@ -265,7 +304,7 @@ pub fn replay_to_dir_with(log_path: &Path, tissues: &Path, out: &Path, limits: &
         _ => None,
     };
     let before = model.volumes();
-    let mut again = replay_with_progress(&log, model, &mut |f| progress("replay", f))
+    let mut again = replay_until(&log, model, until, &mut |f| progress("replay", f))
         .map_err(|e| Error::File { path: tissues.to_owned(), message: e.to_string() })?;
 
     let summary = crate::tissues::export::all_or_nothing(out, |staged| {
@@ -284,18 +323,22 @@ pub fn replay_to_dir_with(log_path: &Path, tissues: &Path, out: &Path, limits: &
         progress("writing forces", 1.0);
         write_force_csv(&staged.join(FORCES_CSV_NAME), &again.forces, &names)?;
         plot_forces(&staged.join(FORCES_PNG_NAME), &again.forces, &colours, 1200, 500)?;
-        let hashes_match_session = session.as_ref().map(|s| {
+        let hashes_match_session = session.as_ref().filter(|_| until.is_none()).map(|s| {
             s.tissues.len() == tissues_out.len()
                 && s.tissues.iter().zip(&tissues_out).all(|(a, b)| a.volumes.name == b.volumes.name && a.content_hash == b.content_hash)
         });
         let summary = ReplaySummary {
             log: log_path.display().to_string(),
-            ticks: log.records.len() as u64,
+            ticks: again.forces.len() as u64,
             max_force_difference_n: again.max_force_difference_n,
             ticks_cut_differently: again.ticks_cut_differently,
             truncated_log_bytes: log.truncated_bytes,
             hashes_match_session,
             tissues: tissues_out,
+            tissues_file: tissues.display().to_string(),
+            until_tick: until,
+            guidance: again.guidance.clone(),
+            ticks_guided_differently: again.ticks_guided_differently,
         };
         write_json(&staged.join(REPLAY_SUMMARY_NAME), &summary)?;
         Ok(summary)

@@ -34,6 +34,7 @@ use crate::cutting::sweep::Done;
 use crate::error::{invalid, Error, Result};
 use crate::haptics::force::MAX_TISSUES;
 use crate::haptics::tick::{HapticCore, HapticParams};
+use crate::session::guidance::{GuidanceReport, GuidanceTracker};
 use crate::session::log::{write_header, write_record, LogHeader, TickRecord, FLAG_CUT, FLAG_DEVICE_FAULT, FLAG_MISSED};
 use crate::tissues::model::{TissueModel, TissueVolumes};
 use crate::tissues::surface::{Mesher, SurfaceFrame};
@@ -104,6 +105,8 @@ pub struct SessionOutcome {
     pub contact_changes: Vec<(i32, u64)>,
     /// The last tick logged (what a display should show at the end).
     pub last_record: Option<TickRecord>,
+    /// Cuts too close to the pulp, from the logged ticks.
+    pub guidance: GuidanceReport,
 }
 
 /// Default cap on mesh frames per second: a cut shows within one frame gap plus its meshing,
@@ -131,6 +134,8 @@ struct Shared {
     stop: AtomicBool,
     haptic_done: AtomicBool,
     latest: Mutex<Option<TickRecord>>,
+    /// The guidance events so far (the logger's, for displays).
+    guidance: Mutex<GuidanceReport>,
     frames: Mutex<Vec<Option<Arc<SurfaceFrame>>>>,
 }
 
@@ -150,6 +155,7 @@ struct LoggerStats {
     max_force: f64,
     changes: Vec<(i32, u64)>,
     last: Option<TickRecord>,
+    guidance: GuidanceReport,
 }
 
 struct MesherStats {
@@ -191,6 +197,7 @@ impl Session {
             stop: AtomicBool::new(false),
             haptic_done: AtomicBool::new(false),
             latest: Mutex::new(None),
+            guidance: Mutex::new(GuidanceReport::default()),
             frames: Mutex::new(vec![None; names.len()]),
         });
         let (mut rec_tx, rec_rx) = rtrb::RingBuffer::<TickRecord>::new(QUEUE_RECORDS);
@@ -224,6 +231,8 @@ impl Session {
         if mirror.is_some() {
             core.set_handoff(Handoff::NewValues);
         }
+        // Guidance reads the pulp as it is now, before any cut (a replay does the same).
+        core.prepare_guidance(&model)?;
         core.prepare_cutting(&mut model)?;
         // The haptic ticks skip measuring removed volume (half a cut's cost): it follows from the
         // volumes before and after, and the mesher's mirror and a replay measure every stroke.
@@ -240,6 +249,7 @@ impl Session {
         }
         let s = shared.clone();
         let n_tissues = names.len();
+        let tracker = GuidanceTracker::new(&options.params.guidance, options.params.period_s);
         let raise = options.raise_priority;
         let logger = std::thread::Builder::new()
             .name("dentsim-logger".into())
@@ -249,7 +259,7 @@ impl Session {
                 if raise {
                     raise_priority(LOGGER_FIFO, LOGGER_NICE);
                 }
-                logger_loop(rec_rx, writer, &s, n_tissues)
+                logger_loop(rec_rx, writer, &s, n_tissues, tracker)
             })
             .map_err(|e| invalid("logger thread", e.to_string()))?;
         let mesher = match mirror {
@@ -292,6 +302,11 @@ impl Session {
     /// The latest frame of each tissue the mesher published (model order).
     pub fn latest_frames(&self) -> Vec<Option<Arc<SurfaceFrame>>> {
         self.shared.frames.lock().unwrap_or_else(|p| p.into_inner()).clone()
+    }
+
+    /// The guidance events the logger has seen so far.
+    pub fn guidance(&self) -> GuidanceReport {
+        self.shared.guidance.lock().unwrap_or_else(|p| p.into_inner()).clone()
     }
 
     /// Each tissue's volume when the session started (mm³, model order).
@@ -351,6 +366,7 @@ impl Session {
             log_path: self.log_path.clone(),
             contact_changes: logger.changes,
             last_record: logger.last,
+            guidance: logger.guidance,
             model,
         })
     }
@@ -464,6 +480,7 @@ fn haptic_loop<D: Device>(
             Err(e) => return Err(e),
         };
         device.send_force(out.force, out.torque);
+        flags |= out.guidance;
         if let Some(stroke) = out.cut {
             flags |= FLAG_CUT;
             match mesher.hand_on(core, model.tissues.len(), stroke) {
@@ -486,6 +503,7 @@ fn haptic_loop<D: Device>(
             tissue: out.raw.tissue.map_or(-1, i32::from),
             flags,
             changed_voxels: out.changed_voxels,
+            clearance_mm: out.clearance_mm,
         };
         if records.push(record).is_err() {
             stats.dropped_records += 1;
@@ -505,8 +523,16 @@ fn logger_loop(
     mut writer: Option<(BufWriter<File>, PathBuf)>,
     shared: &Shared,
     tissues: usize,
+    mut guidance: GuidanceTracker,
 ) -> Result<LoggerStats> {
-    let mut stats = LoggerStats { periods_us: Vec::new(), contact_ticks: vec![0; tissues], max_force: 0.0, changes: Vec::new(), last: None };
+    let mut stats = LoggerStats {
+        periods_us: Vec::new(),
+        contact_ticks: vec![0; tissues],
+        max_force: 0.0,
+        changes: Vec::new(),
+        last: None,
+        guidance: GuidanceReport::default(),
+    };
     let mut last_wall: Option<f64> = None;
     let mut last_tissue = i32::MIN;
     let io = |path: &PathBuf, e: std::io::Error| Error::File { path: path.clone(), message: e.to_string() };
@@ -529,6 +555,7 @@ fn logger_loop(
                 last_tissue = r.tissue;
             }
             stats.max_force = stats.max_force.max(r.force.length());
+            guidance.push(r.tick, r.t_s, r.flags, r.clearance_mm, r.flags & FLAG_CUT != 0);
             latest = Some(r);
         }
         if let Some((w, path)) = writer.as_mut() {
@@ -537,8 +564,14 @@ fn logger_loop(
         if latest.is_some() {
             stats.last = latest;
             *shared.latest.lock().unwrap_or_else(|p| p.into_inner()) = latest;
+            let report = guidance.report();
+            let mut shown = shared.guidance.lock().unwrap_or_else(|p| p.into_inner());
+            if *shown != *report {
+                *shown = report.clone();
+            }
         }
         if done && rx.is_empty() {
+            stats.guidance = guidance.finish();
             return Ok(stats);
         }
         // Well inside the 10 ms flush promise.
