@@ -12,6 +12,7 @@ use serde::Serialize;
 
 use dentsim_sim::burr::Burr;
 use dentsim_sim::haptics::contact::{BurrSamples, ContactQuery};
+use dentsim_sim::haptics::PulpClearance;
 use dentsim_sim::cutting::cutter::Cutter;
 use dentsim_sim::tissues::surface::Mesher;
 use dentsim_sim::cutting::removal::Feed;
@@ -377,6 +378,59 @@ pub fn force_query(tooth: &BenchTooth, points: usize, iterations: usize) -> Resu
     Ok(BenchRow::new("force_query", &Timings(ours), "parry3d TriMesh project_point", &Timings(peer)))
 }
 
+/// Live guidance's reading on the haptic thread: the 1.0 mm round burr 0.3 mm over the molar's
+/// pulp, its 256 samples and centre read in the original pulp's wide-band field
+/// ([`PulpClearance::measure`]); peer: parry3d `project_point` of the same points on the pulp's
+/// triangle mesh (BVH built beforehand). The row's peer text says how far the two readings differ.
+pub fn guidance_clearance(tooth: &BenchTooth, iterations: usize) -> Result<BenchRow> {
+    let model = &tooth.model;
+    let pulp = model.get("pulp").ok_or_else(|| dentsim_sim::error::invalid("bench tooth", "no pulp segmented"))?;
+    let mut reader = pulp.grid.reader();
+    let horn = (0..4000)
+        .map(|i| tooth.occlusal - DVec3::new(0.0, 0.0, 0.005 * f64::from(i)))
+        .find(|p| reader.value(*p) <= 0.0)
+        .ok_or_else(|| dentsim_sim::error::invalid("bench tooth", "no pulp under the crown's centre"))?;
+    drop(reader);
+    let samples = BurrSamples::new(&Burr::round(1.0)?, 256)?;
+    let params = dentsim_sim::haptics::GuidanceParams::default();
+    let mut clearance = PulpClearance::new(model, &params, samples.len())?.ok_or_else(|| dentsim_sim::error::invalid("bench tooth", "no pulp field"))?;
+    let pose = DAffine3::from_translation(horn + DVec3::new(0.0, 0.0, 0.3));
+    let mut ours = Vec::with_capacity(iterations);
+    let mut reading = 0.0;
+    for _ in 0..iterations {
+        let t = Instant::now();
+        reading = clearance.measure(&samples, &pose);
+        ours.push(t.elapsed().as_secs_f64() * 1e6);
+    }
+    let m = dentsim_sim::tissues::surface::surface(&pulp.grid)?;
+    let mesh = ParryMesh::new(m.points.iter().map(|p| Point::new(p.x, p.y, p.z)).collect(), m.triangles.clone());
+    let world: Vec<Point<f32>> = samples
+        .points
+        .iter()
+        .chain(std::iter::once(&samples.centre))
+        .map(|p| {
+            let w = pose.transform_point3(*p);
+            Point::new(w.x as f32, w.y as f32, w.z as f32)
+        })
+        .collect();
+    let mut peer = Vec::with_capacity(iterations);
+    let mut peer_reading = 0.0f32;
+    for _ in 0..iterations.min(200) {
+        let t = Instant::now();
+        peer_reading = world
+            .iter()
+            .map(|p| {
+                let proj = mesh.project_point(&Isometry::identity(), p, false);
+                let d = (proj.point - p).norm();
+                if proj.is_inside { -d } else { d }
+            })
+            .fold(f32::INFINITY, f32::min);
+        peer.push(t.elapsed().as_secs_f64() * 1e6);
+    }
+    let peer_text = format!("parry3d TriMesh project_point on the pulp mesh (readings {reading:.3} vs {peer_reading:.3} mm)");
+    Ok(BenchRow::new("guidance_clearance", &Timings(ours), &peer_text, &Timings(peer)))
+}
+
 /// Sessions pooled in the loop_period and cut_to_visible rows.
 pub const LOOP_RUNS: usize = 3;
 
@@ -567,6 +621,8 @@ pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<B
     rows.push(mesh_surface(model, cfg)?);
     progress("force_query");
     rows.push(force_query(model, 256, cfg.repetitions * 5)?);
+    progress("guidance_clearance");
+    rows.push(guidance_clearance(model, cfg.repetitions * 5)?);
     progress("assess");
     rows.push(assess(model, cfg)?);
     progress("loop_period");

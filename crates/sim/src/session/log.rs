@@ -259,7 +259,9 @@ impl SessionLog {
         }
         let version = u32::from_le_bytes(bytes[8..12].try_into().expect("4 bytes"));
         if !(VERSION..=WRITTEN_VERSION).contains(&version) {
-            return Err(format!("log version {version}, this build reads versions {VERSION} (unchecked) to {WRITTEN_VERSION}"));
+            return Err(format!(
+                "log version {version}, this build reads version {VERSION} (unchecked), version {CHECKED_VERSION} and version {WRITTEN_VERSION}"
+            ));
         }
         let checked = version >= CHECKED_VERSION;
         let record_bytes = if version >= 5 { RECORD_BYTES } else { V4_RECORD_BYTES };
