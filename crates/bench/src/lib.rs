@@ -355,13 +355,7 @@ pub fn force_query(tooth: &BenchTooth, points: usize, iterations: usize) -> Resu
             ParryMesh::new(v, m.triangles.clone())
         })
         .collect();
-    let world: Vec<Point<f32>> = tool_points
-        .iter()
-        .map(|p| {
-            let w = pose.transform_point3(*p);
-            Point::new(w.x as f32, w.y as f32, w.z as f32)
-        })
-        .collect();
+    let world = placed(&tool_points, &pose);
     let mut peer = Vec::with_capacity(iterations);
     let mut sink = 0.0f32;
     for _ in 0..iterations.min(200) {
@@ -376,6 +370,11 @@ pub fn force_query(tooth: &BenchTooth, points: usize, iterations: usize) -> Resu
     std::hint::black_box(sink);
     let _ = in_contact;
     Ok(BenchRow::new("force_query", &Timings(ours), "parry3d TriMesh project_point", &Timings(peer)))
+}
+
+/// Tool-frame points placed at `pose`, as parry3d points.
+fn placed(points: &[DVec3], pose: &DAffine3) -> Vec<Point<f32>> {
+    points.iter().map(|p| pose.transform_point3(*p).as_vec3()).map(|w| Point::new(w.x, w.y, w.z)).collect()
 }
 
 /// Live guidance's reading on the haptic thread: the 1.0 mm round burr 0.3 mm over the molar's
@@ -404,15 +403,9 @@ pub fn guidance_clearance(tooth: &BenchTooth, iterations: usize) -> Result<Bench
     }
     let m = dentsim_sim::tissues::surface::surface(&pulp.grid)?;
     let mesh = ParryMesh::new(m.points.iter().map(|p| Point::new(p.x, p.y, p.z)).collect(), m.triangles.clone());
-    let world: Vec<Point<f32>> = samples
-        .points
-        .iter()
-        .chain(std::iter::once(&samples.centre))
-        .map(|p| {
-            let w = pose.transform_point3(*p);
-            Point::new(w.x as f32, w.y as f32, w.z as f32)
-        })
-        .collect();
+    let mut tool_points = samples.points.clone();
+    tool_points.push(samples.centre);
+    let world = placed(&tool_points, &pose);
     let mut peer = Vec::with_capacity(iterations);
     let mut peer_reading = 0.0f32;
     for _ in 0..iterations.min(200) {
