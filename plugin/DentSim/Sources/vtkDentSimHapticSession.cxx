@@ -4,6 +4,7 @@
 #include <vtkCompositeDataSet.h>
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>
+#include <vtkUnsignedCharArray.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
 #include <vtkMultiBlockDataSet.h>
@@ -93,6 +94,21 @@ vtkSmartPointer<vtkPolyData> ForceArrow(const dentsim::ffi::SessionState& s, dou
   return pd;
 }
 
+// The burr's warning colour as a direct RGB point array (`GuidanceColour`, shown as is with
+// Map Scalars off): steel when clear, amber within the thin-dentin threshold of the pulp, red in it.
+void AddGuidance(vtkPolyData* burr, const dentsim::ffi::SessionState& s) {
+  if (!burr) return;
+  static const unsigned char colours[3][3] = {{190, 195, 205}, {255, 170, 0}, {220, 20, 20}};
+  const unsigned char* c = colours[s.warning_level < 3 ? s.warning_level : 2];
+  vtkNew<vtkUnsignedCharArray> rgb;
+  rgb->SetName("GuidanceColour");
+  rgb->SetNumberOfComponents(3);
+  rgb->SetNumberOfTuples(burr->GetNumberOfPoints());
+  for (vtkIdType i = 0; i < burr->GetNumberOfPoints(); ++i) rgb->SetTypedTuple(i, c);
+  burr->GetPointData()->AddArray(rgb);
+  AddField(burr->GetFieldData(), "GuidanceLevel", double(s.warning_level));
+}
+
 }  // namespace
 
 int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**,
@@ -140,7 +156,9 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
       output->GetMetaData(i)->Set(vtkCompositeDataSet::NAME(),
                                   in.Tissues->GetMetaData(i)->Get(vtkCompositeDataSet::NAME()));
     }
-    output->SetBlock(n, burrBlock->GetBlock(0));
+    auto* burrSurface = burrBlock->GetBlock(0);
+    AddGuidance(vtkPolyData::SafeDownCast(burrSurface), state);
+    output->SetBlock(n, burrSurface);
     output->GetMetaData(n)->Set(vtkCompositeDataSet::NAME(), "burr");
     auto arrow = ForceArrow(state, 0.5);
     output->SetBlock(n + 1, arrow);
@@ -155,6 +173,12 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
     AddField(fd, "Tick", double(state.tick));
     AddField(fd, "Time", state.time_s);
     AddField(fd, "Running", state.running ? 1.0 : 0.0);
+    // Live guidance: tissue left over the pulp (NaN when far), the warning level, the events.
+    AddField(fd, "RemainingDentinMm", state.remaining_dentin_mm);
+    AddField(fd, "GuidanceLevel", double(state.warning_level));
+    AddField(fd, "ThinDentinThresholdMm", state.thin_dentin_mm);
+    AddField(fd, "ThinDentinEvents", double(state.thin_dentin_events));
+    AddField(fd, "PulpExposureEvents", double(state.pulp_exposure_events));
     in.ShownFinal = !state.running;
   } catch (const rust::Error& e) {
     in.Session.reset();

@@ -227,3 +227,24 @@ impl LiveSession {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_warning_level_follows_the_clearance_against_the_threshold() {
+        let state = |clearance_mm: f64, thin_dentin_mm: f64| LiveState {
+            clearance_mm,
+            guidance: GuidanceReport { thin_dentin_mm, ..GuidanceReport::default() },
+            ..LiveState::default()
+        };
+        assert_eq!(state(f64::INFINITY, 0.5).warning_level(), 0);
+        assert_eq!(state(0.6, 0.5).warning_level(), 0);
+        assert_eq!(state(0.49, 0.5).warning_level(), 1);
+        assert_eq!(state(0.0, 0.5).warning_level(), 1);
+        assert_eq!(state(-0.01, 0.5).warning_level(), 2);
+        // Guidance off (threshold 0): only a reading inside the pulp would warn, and none is made.
+        assert_eq!(state(0.2, 0.0).warning_level(), 0);
+    }
+}

@@ -1,0 +1,51 @@
+"""Live guidance in the Dental Haptic Session: a simulated hand drills the phantom toward its pulp
+(top at z = 2.0). The output's field data carries the remaining dentin, the warning level and the
+events; the burr turns amber near the pulp and red inside it (its GuidanceColour array)."""
+from paraview import servermanager, simple
+
+from dentsim_testing import check, parse_args
+
+args = parse_args()
+simple.LoadPlugin(args.plugin, ns=globals())
+
+
+def state(source):
+    """Polls like ParaView's live-source timer and returns the guidance figures."""
+    source.SMProxy.InvokeCommand("PollSession")
+    source.SMProxy.MarkModified(source.SMProxy)
+    source.UpdatePipeline()
+    data = servermanager.Fetch(source)
+    names = [data.GetMetaData(i).Get(data.NAME()) for i in range(data.GetNumberOfBlocks())]
+    burr = data.GetBlock(names.index("burr"))
+    fd = data.GetFieldData()
+    value = lambda name: fd.GetArray(name).GetValue(0)
+    return {
+        "running": value("Running") == 1.0,
+        "tick": int(value("Tick")),
+        "dentin": value("RemainingDentinMm"),
+        "level": int(value("GuidanceLevel")),
+        "threshold": value("ThinDentinThresholdMm"),
+        "thin_events": int(value("ThinDentinEvents")),
+        "exposures": int(value("PulpExposureEvents")),
+        "colour": tuple(int(c) for c in burr.GetPointData().GetArray("GuidanceColour").GetTuple3(0)),
+        "burr_level": int(burr.GetFieldData().GetArray("GuidanceLevel").GetValue(0)),
+    }
+
+
+hand = "start=0:0:5.6,target=0:0:1.0,push=2,pedal=1,rpm=400000,duration=3"
+session = DentalHapticSession(PhantomVoxelSizemm=0.08, Device="Simulated hand", HandParameters=hand,
+                              ForceFilter="none", RealTime=0)
+seen = [state(session)]
+while seen[-1]["running"]:
+    seen.append(state(session))
+final = seen[-1]
+print("polls %d; final %s" % (len(seen), final))
+check(final["tick"] == 3001 and not final["running"], "ran to the end: %s" % final)
+check(final["threshold"] == 0.5, "threshold: %s" % final)
+# The command-line run of the same hand warns of thin dentin at 1.2 s and opens the pulp at 1.45 s.
+check(final["thin_events"] >= 1 and final["exposures"] >= 1, "events: %s" % final)
+check(final["level"] == 2 and final["dentin"] < 0.0 and final["burr_level"] == 2, "in the pulp at the end: %s" % final)
+check(final["colour"] == (220, 20, 20), "the burr is red in the pulp: %s" % (final["colour"],))
+first = seen[0]
+check(first["colour"] == (190, 195, 205) and first["level"] == 0, "steel when clear: %s" % first)
+check(first["dentin"] != first["dentin"], "no reading far from the pulp (NaN): %s" % first)
