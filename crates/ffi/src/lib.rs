@@ -89,7 +89,16 @@ mod bridge {
         mesh_generation: u64,
     }
 
+    /// A tissue surface from upstream in the pipeline (one block: name, x,y,z per point,
+    /// three point ids per triangle).
+    struct InputSurface {
+        name: String,
+        points: Vec<f32>,
+        triangles: Vec<u32>,
+    }
+
     /// A planned preparation ("Dental Preparation"): tissues, tool path, burr, force.
+    #[derive(Clone)]
     struct PreparationParams {
         /// A .vdb of tissues; empty for the built-in capsule phantom.
         tissues_path: String,
@@ -152,6 +161,33 @@ mod bridge {
     }
 
     extern "Rust" {
+        /// Work on a thread of its own that the plugin polls: progress, abort, result.
+        type SurfaceJob;
+        /// As `prepare_tissues`, on a thread; `tissues` (when not empty) are the tissue surfaces
+        /// to cut, rebuilt as level sets at `tissue_voxel_mm`, instead of the file or phantom.
+        fn start_preparation(
+            params: &PreparationParams,
+            tissues: &[InputSurface],
+            tissue_voxel_mm: f64,
+            points: &[f64],
+            orientation: &[f64],
+            time: &[f64],
+            rpm: &[f64],
+            cut: &[f64],
+        ) -> Result<Box<SurfaceJob>>;
+        /// Fraction done, 0..=1.
+        fn progress(self: &SurfaceJob) -> f64;
+        fn finished(self: &SurfaceJob) -> bool;
+        /// Asks the work to stop at its next check; `wait` then returns an error saying so.
+        fn abort(self: &SurfaceJob);
+        /// Blocks until the work ends; its surfaces or its error.
+        fn wait(self: &mut SurfaceJob) -> Result<Vec<TissueSurface>>;
+        /// The tissue table as ParaView settings: a categorical colour map for the cell array
+        /// `Tissue` (each tissue's colour, opacity and name), JSON for vtkSMSettings.
+        fn tissue_colour_settings() -> String;
+    }
+
+    extern "Rust" {
         type HapticSession;
         fn default_session() -> SessionParams;
         fn start_session(params: &SessionParams) -> Result<Box<HapticSession>>;
@@ -170,7 +206,7 @@ mod bridge {
     }
 }
 
-pub use bridge::{AssessmentParams, AssessmentResult, AssessmentRow, ImageGeometry, PreparationParams, TissuesFromScanParams, SessionParams, SessionState, StrokeParams, TissueSurface};
+pub use bridge::{AssessmentParams, AssessmentResult, AssessmentRow, ImageGeometry, InputSurface, PreparationParams, TissuesFromScanParams, SessionParams, SessionState, StrokeParams, TissueSurface};
 
 /// Runs `f`, turning a panic into an error so it never unwinds into C++.
 fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
@@ -296,28 +332,173 @@ pub fn prepare_tissues(
     rpm: &[f64],
     cut: &[f64],
 ) -> Result<Vec<TissueSurface>, String> {
-    guarded("dental preparation", || {
-        use dentsim_sim::plan::prepare::{PathSource, PreparationRequest};
-        let tissues = (!params.tissues_path.is_empty()).then(|| std::path::Path::new(params.tissues_path.as_str()));
-        let path = if params.use_polyline {
-            PathSource::Polyline(dentsim_sim::plan::path::PolylineArrays { points, orientation, time, rpm, cut })
-        } else if params.path_csv.is_empty() {
-            return Err("tool path: neither a polyline input nor a CSV file was given".into());
-        } else {
-            PathSource::Csv(std::path::Path::new(params.path_csv.as_str()))
-        };
-        let request = PreparationRequest {
-            tissues,
-            phantom_voxel_mm: params.phantom_voxel_mm,
-            path,
-            burr: &params.burr,
-            force_n: params.force_n,
-        };
-        let files = [("Tissues File", params.tissues_path.as_str()), ("Tool Path File (CSV)", params.path_csv.as_str())];
-        let prepared = request.run(&TissueTable::default()).map_err(|e| name_property(e.to_string(), &files))?;
-        cut_surfaces(&prepared.model, &prepared.tissues)
+    let path = OwnedPath { points: points.to_vec(), orientation: orientation.to_vec(), time: time.to_vec(), rpm: rpm.to_vec(), cut: cut.to_vec() };
+    guarded("dental preparation", || prepare_owned(params, None, &path, &mut |_| true))
+}
+
+/// A polyline's arrays, owned so that a job's thread can hold them.
+#[derive(Default)]
+struct OwnedPath {
+    points: Vec<f64>,
+    orientation: Vec<f64>,
+    time: Vec<f64>,
+    rpm: Vec<f64>,
+    cut: Vec<f64>,
+}
+
+fn prepare_owned(
+    params: &PreparationParams,
+    tissues: Option<dentsim_sim::tissues::model::TissueModel>,
+    p: &OwnedPath,
+    go_on: &mut dyn FnMut(f64) -> bool,
+) -> Result<Vec<TissueSurface>, String> {
+    use dentsim_sim::plan::prepare::{PathSource, PreparationRequest};
+    let path = if params.use_polyline {
+        let arrays = dentsim_sim::plan::path::PolylineArrays { points: &p.points, orientation: &p.orientation, time: &p.time, rpm: &p.rpm, cut: &p.cut };
+        PathSource::Polyline(arrays)
+    } else if params.path_csv.is_empty() {
+        return Err("Tool Path: neither a polyline input nor a Tool Path File (CSV) was given".into());
+    } else {
+        PathSource::Csv(std::path::Path::new(params.path_csv.as_str()))
+    };
+    let from_file = tissues.is_none() && !params.tissues_path.is_empty();
+    let request = PreparationRequest {
+        tissues: from_file.then(|| std::path::Path::new(params.tissues_path.as_str())),
+        phantom_voxel_mm: params.phantom_voxel_mm,
+        path,
+        burr: &params.burr,
+        force_n: params.force_n,
+    };
+    let files = [("Tissues File", params.tissues_path.as_str()), ("Tool Path File (CSV)", params.path_csv.as_str())];
+    let prepared = request.run_until(&TissueTable::default(), tissues, go_on).map_err(|e| name_property(e.to_string(), &files))?;
+    cut_surfaces(&prepared.model, &prepared.tissues)
+}
+
+/// A model rebuilt from the pipeline's tissue surfaces (the "Tissues" input).
+fn model_from_inputs(tissues: &[InputSurface], voxel_mm: f64) -> Result<dentsim_sim::tissues::model::TissueModel, String> {
+    let surfaces: Vec<(String, TriMesh)> = tissues
+        .iter()
+        .map(|s| {
+            let points = s.points.chunks_exact(3).map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect::<Vec<_>>();
+            if s.points.len() % 3 != 0 || s.triangles.len() % 3 != 0 || s.triangles.iter().any(|&i| i as usize >= points.len()) {
+                return Err(format!("Tissues: block '{}' is not a triangle surface", s.name));
+            }
+            let triangles = s.triangles.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+            Ok((s.name.clone(), TriMesh { points, normals: Vec::new(), triangles }))
+        })
+        .collect::<Result<_, _>>()?;
+    dentsim_sim::tissues::model::TissueModel::from_surfaces("Tissues", &surfaces, voxel_mm, &TissueTable::default()).map_err(|e| e.to_string())
+}
+
+/// Work on its own thread: the plugin polls `progress`/`finished`, may `abort`, then `wait`s.
+pub struct SurfaceJob {
+    progress: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    handle: Option<std::thread::JoinHandle<Result<Vec<TissueSurface>, String>>>,
+}
+
+impl SurfaceJob {
+    /// Runs `work(go_on)` on a thread; `go_on(fraction)` books progress and says whether to go on.
+    fn spawn(what: &'static str, work: impl FnOnce(&mut dyn FnMut(f64) -> bool) -> Result<Vec<TissueSurface>, String> + Send + 'static) -> Result<Box<Self>, String> {
+        use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+        let progress = std::sync::Arc::new(AtomicU64::new(0f64.to_bits()));
+        let stop = std::sync::Arc::new(AtomicBool::new(false));
+        let (p, s) = (progress.clone(), stop.clone());
+        let handle = std::thread::Builder::new()
+            .name(what.into())
+            .spawn(move || {
+                guarded(what, move || {
+                    work(&mut |f| {
+                        p.store(f.clamp(0.0, 1.0).to_bits(), Ordering::Relaxed);
+                        !s.load(Ordering::Relaxed)
+                    })
+                })
+            })
+            .map_err(|e| format!("{what}: cannot start a thread: {e}"))?;
+        Ok(Box::new(SurfaceJob { progress, stop, handle: Some(handle) }))
+    }
+
+    fn progress(&self) -> f64 {
+        f64::from_bits(self.progress.load(std::sync::atomic::Ordering::Relaxed))
+    }
+
+    fn finished(&self) -> bool {
+        self.handle.as_ref().map_or(true, |h| h.is_finished())
+    }
+
+    fn abort(&self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    fn wait(&mut self) -> Result<Vec<TissueSurface>, String> {
+        match self.handle.take() {
+            Some(h) => h.join().unwrap_or_else(|_| Err("job: internal error".into())),
+            None => Err("job: already waited for".into()),
+        }
+    }
+}
+
+impl Drop for SurfaceJob {
+    fn drop(&mut self) {
+        self.abort();
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+pub fn start_preparation(
+    params: &PreparationParams,
+    tissues: &[InputSurface],
+    tissue_voxel_mm: f64,
+    points: &[f64],
+    orientation: &[f64],
+    time: &[f64],
+    rpm: &[f64],
+    cut: &[f64],
+) -> Result<Box<SurfaceJob>, String> {
+    let params = params.clone();
+    let path = OwnedPath { points: points.to_vec(), orientation: orientation.to_vec(), time: time.to_vec(), rpm: rpm.to_vec(), cut: cut.to_vec() };
+    let tissues: Vec<InputSurface> = tissues.iter().map(|s| InputSurface { name: s.name.clone(), points: s.points.clone(), triangles: s.triangles.clone() }).collect();
+    SurfaceJob::spawn("dental preparation", move |go_on| {
+        let model = if tissues.is_empty() { None } else { Some(model_from_inputs(&tissues, tissue_voxel_mm)?) };
+        prepare_owned(&params, model, &path, go_on)
     })
 }
+
+/// Label, name, colour and opacity of every tissue (and the session's burr, label 0) as the
+/// `array_lookup_tables` settings ParaView reads when it first colours by an array of that name.
+fn tissue_colour_settings() -> String {
+    let table = TissueTable::default();
+    let mut annotations = vec![serde_json::json!(BURR_LABEL.to_string()), serde_json::json!("burr")];
+    let mut colours: Vec<f32> = BURR_COLOUR.to_vec();
+    let mut opacities = vec![1.0f32];
+    for t in &table.tissues {
+        annotations.push(serde_json::json!(t.label.to_string()));
+        annotations.push(serde_json::json!(t.name));
+        colours.extend(t.colour);
+        opacities.push(t.opacity);
+    }
+    serde_json::json!({
+        "array_lookup_tables": { "Tissue": {
+            "Title": "Tissue",
+            "PVLookupTable": {
+                "IndexedLookup": 1,
+                "AnnotationsInitialized": 1,
+                "Annotations": annotations,
+                "IndexedColors": colours,
+                "IndexedOpacities": opacities,
+                "EnableOpacityMapping": 1,
+            }
+        }}
+    })
+    .to_string()
+}
+
+/// The burr's label and colour in the session's output (its `Tissue` cell array).
+const BURR_LABEL: i32 = 0;
+const BURR_COLOUR: [f32; 3] = [0.75, 0.75, 0.8];
 
 /// Surfaces of a cut model with each tissue's volume figures.
 fn cut_surfaces(model: &dentsim_sim::tissues::model::TissueModel, volumes: &[TissueVolumes]) -> Result<Vec<TissueSurface>, String> {
