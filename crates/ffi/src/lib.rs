@@ -490,6 +490,8 @@ fn tissue_colour_settings() -> String {
                 "IndexedColors": colours,
                 "IndexedOpacities": opacities,
                 "EnableOpacityMapping": 1,
+                // The legend lists the tissues present, not the whole table.
+                "ShowIndexedColorActiveValues": 1,
             }
         }}
     })
