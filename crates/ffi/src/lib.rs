@@ -97,6 +97,19 @@ mod bridge {
         triangles: Vec<u32>,
     }
 
+    /// One row of a batch report: a case's tissue ("Dental Batch Plan"; see `dentsim batch`).
+    struct BatchRow {
+        case_name: String,
+        scan: String,
+        preparation: String,
+        burr: String,
+        tissue: String,
+        removed_mm3: f64,
+        volume_before_mm3: f64,
+        volume_after_mm3: f64,
+        seconds: f64,
+    }
+
     /// A planned preparation ("Dental Preparation"): tissues, tool path, burr, force.
     #[derive(Clone)]
     struct PreparationParams {
@@ -188,6 +201,14 @@ mod bridge {
     }
 
     extern "Rust" {
+        /// Runs shard `index` of `count` of the manifest's cases into `out` (as
+        /// `dentsim batch --shard`); the rows of the cases it ran.
+        fn batch_shard(manifest: &str, out: &str, index: u32, count: u32) -> Result<Vec<BatchRow>>;
+        /// Merges every case under `out` into report.csv/report.json (as `dentsim batch --merge`).
+        fn batch_merge(manifest: &str, out: &str, shards: u32) -> Result<Vec<BatchRow>>;
+    }
+
+    extern "Rust" {
         type HapticSession;
         fn default_session() -> SessionParams;
         fn start_session(params: &SessionParams) -> Result<Box<HapticSession>>;
@@ -206,7 +227,7 @@ mod bridge {
     }
 }
 
-pub use bridge::{AssessmentParams, AssessmentResult, AssessmentRow, ImageGeometry, InputSurface, PreparationParams, TissuesFromScanParams, SessionParams, SessionState, StrokeParams, TissueSurface};
+pub use bridge::{AssessmentParams, AssessmentResult, AssessmentRow, BatchRow, ImageGeometry, InputSurface, PreparationParams, TissuesFromScanParams, SessionParams, SessionState, StrokeParams, TissueSurface};
 
 /// Runs `f`, turning a panic into an error so it never unwinds into C++.
 fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
@@ -496,6 +517,49 @@ fn tissue_colour_settings() -> String {
         }}
     })
     .to_string()
+}
+
+fn batch_rows(reports: &[dentsim_sim::plan::batch::CaseReport]) -> Vec<BatchRow> {
+    let row = |r: &dentsim_sim::plan::batch::CaseReport, t: &TissueVolumes| BatchRow {
+        case_name: r.case.clone(),
+        scan: r.scan.clone(),
+        preparation: r.preparation.clone(),
+        burr: r.burr.clone(),
+        tissue: t.name.clone(),
+        removed_mm3: t.removed_mm3,
+        volume_before_mm3: t.volume_before_mm3,
+        volume_after_mm3: t.volume_after_mm3,
+        seconds: r.seconds,
+    };
+    reports.iter().flat_map(|r| r.tissues.iter().map(move |t| row(r, t))).collect()
+}
+
+fn read_manifest(manifest: &str) -> Result<dentsim_sim::plan::batch::Manifest, String> {
+    if manifest.trim().is_empty() {
+        return Err("Manifest File: no file given".into());
+    }
+    dentsim_sim::plan::batch::Manifest::read(std::path::Path::new(manifest)).map_err(|e| format!("Manifest File: {e}"))
+}
+
+fn batch_shard(manifest: &str, out: &str, index: u32, count: u32) -> Result<Vec<BatchRow>, String> {
+    use dentsim_sim::plan::batch::{run_shard, Shard};
+    guarded("batch plan", || {
+        let m = read_manifest(manifest)?;
+        if out.trim().is_empty() {
+            return Err("Output Directory: no folder given".into());
+        }
+        let shard = Shard::new(index as usize, count as usize).map_err(|e| e.to_string())?;
+        let reports = run_shard(&m, std::path::Path::new(out), shard, &TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
+        Ok(batch_rows(&reports))
+    })
+}
+
+fn batch_merge(manifest: &str, out: &str, shards: u32) -> Result<Vec<BatchRow>, String> {
+    guarded("batch plan", || {
+        let m = read_manifest(manifest)?;
+        let reports = dentsim_sim::plan::batch::merge(&m, std::path::Path::new(out), shards as usize).map_err(|e| e.to_string())?;
+        Ok(batch_rows(&reports))
+    })
 }
 
 /// The burr's label and colour in the session's output (its `Tissue` cell array).
