@@ -14,8 +14,9 @@ pub struct Args {
     /// merge afterwards with --merge.
     #[arg(long)]
     shard: Option<String>,
-    /// Only merge the cases already run into report.csv/report.json (errors name missing cases).
-    #[arg(long, conflicts_with = "shard")]
+    /// Only merge the cases already run into report.csv/report.json (errors name missing cases;
+    /// with --shard I/N, the shard of N that should have run each).
+    #[arg(long)]
     merge: bool,
     /// Tissue table overrides (TOML), for grids without dentsim metadata.
     #[arg(long)]
