@@ -19,7 +19,7 @@ DENTSIM_APT_PACKAGES=(
   libopenvdb-dev libboost-dev libtbb-dev libimath-dev libopenvdb-tools python3-openvdb
   paraview paraview-dev python3-paraview libopenmpi-dev libdouble-conversion-dev
   xvfb xauth fonts-dejavu-core
-  openmpi-bin qhelpgenerator-qt5 qtxmlpatterns5-dev-tools
+  openmpi-bin qhelpgenerator-qt5 qtxmlpatterns5-dev-tools qttools5-dev
   python3-numpy python3-pydicom python3-nibabel
 )
 
