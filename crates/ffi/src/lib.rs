@@ -195,6 +195,9 @@ mod bridge {
         fn abort(self: &SurfaceJob);
         /// Blocks until the work ends; its surfaces or its error.
         fn wait(self: &mut SurfaceJob) -> Result<Vec<TissueSurface>>;
+        /// As `tissues_from_scan`, on a thread (progress follows segmentation's steps; an abort
+        /// is honoured when segmentation returns).
+        fn start_tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Box<SurfaceJob>>;
         /// The tissue table as ParaView settings: a categorical colour map for the cell array
         /// `Tissue` (each tissue's colour, opacity and name), JSON for vtkSMSettings.
         fn tissue_colour_settings() -> String;
@@ -206,6 +209,13 @@ mod bridge {
         fn batch_shard(manifest: &str, out: &str, index: u32, count: u32) -> Result<Vec<BatchRow>>;
         /// Merges every case under `out` into report.csv/report.json (as `dentsim batch --merge`).
         fn batch_merge(manifest: &str, out: &str, shards: u32) -> Result<Vec<BatchRow>>;
+        /// Batch work on a thread: as `batch_shard` (abort stops before the next case).
+        type RowsJob;
+        fn start_batch_shard(manifest: &str, out: &str, index: u32, count: u32) -> Result<Box<RowsJob>>;
+        fn progress(self: &RowsJob) -> f64;
+        fn finished(self: &RowsJob) -> bool;
+        fn abort(self: &RowsJob);
+        fn wait(self: &mut RowsJob) -> Result<Vec<BatchRow>>;
     }
 
     extern "Rust" {
@@ -320,28 +330,26 @@ pub fn assess_preparation(params: &AssessmentParams) -> Result<AssessmentResult,
 
 /// One tooth's tissue surfaces from a scan already in memory (a ParaView reader's output).
 pub fn tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Vec<TissueSurface>, String> {
-    guarded("tissues from scan", || {
-        let d = geometry.direction;
-        let direction = [[d[0], d[3], d[6]], [d[1], d[4], d[7]], [d[2], d[5], d[8]]];
-        let source = dentsim_cbct::SourceInfo { format: "vtkImageData".into(), path: "ParaView input".into(), ..Default::default() };
-        let scan = dentsim_cbct::Volume::new(
-            geometry.dims.map(|n| n as usize),
-            geometry.spacing,
-            geometry.origin,
-            direction,
-            values.to_vec(),
-            source,
-        )
+    guarded("tissues from scan", || segment_scan(geometry, values.to_vec(), params, &mut |_| {}))
+}
+
+fn segment_scan(geometry: &ImageGeometry, values: Vec<f32>, params: &TissuesFromScanParams, progress: &mut dyn FnMut(f64)) -> Result<Vec<TissueSurface>, String> {
+    let d = geometry.direction;
+    let direction = [[d[0], d[3], d[6]], [d[1], d[4], d[7]], [d[2], d[5], d[8]]];
+    let source = dentsim_cbct::SourceInfo { format: "vtkImageData".into(), path: "ParaView input".into(), ..Default::default() };
+    let scan = dentsim_cbct::Volume::new(geometry.dims.map(|n| n as usize), geometry.spacing, geometry.origin, direction, values, source)
         .map_err(|e| format!("input image: {e}"))?;
-        let request = dentsim_sim::tissues::from_scan::TissuesFromScan {
-            voxel_size_mm: params.voxel_size_mm,
-            fdi: params.fdi,
-            seed_mm: params.use_seed.then_some(params.seed_mm),
-            ..Default::default()
-        };
-        let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
-        unchanged_surfaces(&model)
-    })
+    let request = dentsim_sim::tissues::from_scan::TissuesFromScan {
+        voxel_size_mm: params.voxel_size_mm,
+        fdi: params.fdi,
+        seed_mm: params.use_seed.then_some(params.seed_mm),
+        ..Default::default()
+    };
+    // Segmentation reports up to 0.9; meshing the surfaces is the rest.
+    let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, f| progress(0.9 * f)).map_err(|e| e.to_string())?;
+    let surfaces = unchanged_surfaces(&model);
+    progress(1.0);
+    surfaces
 }
 
 /// A tool path cut into the tissues (or the phantom); see `sim::prepare::PreparationRequest`.
@@ -412,15 +420,20 @@ fn model_from_inputs(tissues: &[InputSurface], voxel_mm: f64) -> Result<dentsim_
 }
 
 /// Work on its own thread: the plugin polls `progress`/`finished`, may `abort`, then `wait`s.
-pub struct SurfaceJob {
+pub struct Job<T: Send + 'static> {
     progress: std::sync::Arc<std::sync::atomic::AtomicU64>,
     stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
-    handle: Option<std::thread::JoinHandle<Result<Vec<TissueSurface>, String>>>,
+    handle: Option<std::thread::JoinHandle<Result<T, String>>>,
 }
 
-impl SurfaceJob {
+/// A job whose result is tissue surfaces (a preparation, a segmentation).
+pub type SurfaceJob = Job<Vec<TissueSurface>>;
+/// A job whose result is batch report rows.
+pub type RowsJob = Job<Vec<BatchRow>>;
+
+impl<T: Send + 'static> Job<T> {
     /// Runs `work(go_on)` on a thread; `go_on(fraction)` books progress and says whether to go on.
-    fn spawn(what: &'static str, work: impl FnOnce(&mut dyn FnMut(f64) -> bool) -> Result<Vec<TissueSurface>, String> + Send + 'static) -> Result<Box<Self>, String> {
+    fn spawn(what: &'static str, work: impl FnOnce(&mut dyn FnMut(f64) -> bool) -> Result<T, String> + Send + 'static) -> Result<Box<Self>, String> {
         use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
         let progress = std::sync::Arc::new(AtomicU64::new(0f64.to_bits()));
         let stop = std::sync::Arc::new(AtomicBool::new(false));
@@ -429,14 +442,19 @@ impl SurfaceJob {
             .name(what.into())
             .spawn(move || {
                 guarded(what, move || {
-                    work(&mut |f| {
+                    let result = work(&mut |f| {
                         p.store(f.clamp(0.0, 1.0).to_bits(), Ordering::Relaxed);
                         !s.load(Ordering::Relaxed)
-                    })
+                    });
+                    // Work that cannot stop part-way still ends as aborted when asked to.
+                    match result {
+                        Ok(_) if s.load(Ordering::Relaxed) => Err(format!("{what}: {}", dentsim_sim::plan::prepare::ABORTED)),
+                        other => other,
+                    }
                 })
             })
             .map_err(|e| format!("{what}: cannot start a thread: {e}"))?;
-        Ok(Box::new(SurfaceJob { progress, stop, handle: Some(handle) }))
+        Ok(Box::new(Job { progress, stop, handle: Some(handle) }))
     }
 
     fn progress(&self) -> f64 {
@@ -451,7 +469,7 @@ impl SurfaceJob {
         self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
     }
 
-    fn wait(&mut self) -> Result<Vec<TissueSurface>, String> {
+    fn wait(&mut self) -> Result<T, String> {
         match self.handle.take() {
             Some(h) => h.join().unwrap_or_else(|_| Err("job: internal error".into())),
             None => Err("job: already waited for".into()),
@@ -459,13 +477,27 @@ impl SurfaceJob {
     }
 }
 
-impl Drop for SurfaceJob {
+impl<T: Send + 'static> Drop for Job<T> {
     fn drop(&mut self) {
         self.abort();
         if let Some(h) = self.handle.take() {
             let _ = h.join();
         }
     }
+}
+
+pub fn start_tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Box<SurfaceJob>, String> {
+    let geometry = ImageGeometry { dims: geometry.dims, spacing: geometry.spacing, origin: geometry.origin, direction: geometry.direction };
+    let params = TissuesFromScanParams { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, use_seed: params.use_seed, seed_mm: params.seed_mm };
+    let values = values.to_vec();
+    Job::spawn("tissues from scan", move |go_on| segment_scan(&geometry, values, &params, &mut |f| {
+        go_on(f);
+    }))
+}
+
+pub fn start_batch_shard(manifest: &str, out: &str, index: u32, count: u32) -> Result<Box<RowsJob>, String> {
+    let (manifest, out) = (manifest.to_owned(), out.to_owned());
+    Job::spawn("batch plan", move |go_on| batch_shard_until(&manifest, &out, index, count, &mut |_, f| go_on(f)))
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -482,7 +514,7 @@ pub fn start_preparation(
     let params = params.clone();
     let path = OwnedPath { points: points.to_vec(), orientation: orientation.to_vec(), time: time.to_vec(), rpm: rpm.to_vec(), cut: cut.to_vec() };
     let tissues: Vec<InputSurface> = tissues.iter().map(|s| InputSurface { name: s.name.clone(), points: s.points.clone(), triangles: s.triangles.clone() }).collect();
-    SurfaceJob::spawn("dental preparation", move |go_on| {
+    Job::spawn("dental preparation", move |go_on| {
         let model = if tissues.is_empty() { None } else { Some(model_from_inputs(&tissues, tissue_voxel_mm)?) };
         prepare_owned(&params, model, &path, go_on)
     })
@@ -542,16 +574,18 @@ fn read_manifest(manifest: &str) -> Result<dentsim_sim::plan::batch::Manifest, S
 }
 
 fn batch_shard(manifest: &str, out: &str, index: u32, count: u32) -> Result<Vec<BatchRow>, String> {
-    use dentsim_sim::plan::batch::{run_shard, Shard};
-    guarded("batch plan", || {
-        let m = read_manifest(manifest)?;
-        if out.trim().is_empty() {
-            return Err("Output Directory: no folder given".into());
-        }
-        let shard = Shard::new(index as usize, count as usize).map_err(|e| e.to_string())?;
-        let reports = run_shard(&m, std::path::Path::new(out), shard, &TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
-        Ok(batch_rows(&reports))
-    })
+    guarded("batch plan", || batch_shard_until(manifest, out, index, count, &mut |_, _| true))
+}
+
+fn batch_shard_until(manifest: &str, out: &str, index: u32, count: u32, go_on: &mut dyn FnMut(&str, f64) -> bool) -> Result<Vec<BatchRow>, String> {
+    use dentsim_sim::plan::batch::{run_shard_until, Shard};
+    let m = read_manifest(manifest)?;
+    if out.trim().is_empty() {
+        return Err("Output Directory: no folder given".into());
+    }
+    let shard = Shard::new(index as usize, count as usize).map_err(|e| e.to_string())?;
+    let reports = run_shard_until(&m, std::path::Path::new(out), shard, &TissueTable::default(), go_on).map_err(|e| e.to_string())?;
+    Ok(batch_rows(&reports))
 }
 
 fn batch_merge(manifest: &str, out: &str, shards: u32) -> Result<Vec<BatchRow>, String> {

@@ -43,8 +43,9 @@ int vtkDentSimBatchPlan::RequestData(vtkInformation*, vtkInformationVector**,
   const std::string out = this->OutputDirectory ? this->OutputDirectory : "";
   try {
     auto rows = this->Step == 0
-                    ? dentsim::ffi::batch_shard(manifest, out, static_cast<uint32_t>(piece),
-                                                static_cast<uint32_t>(pieces > 0 ? pieces : 1))
+                    ? dentsim::RunJob(this, dentsim::ffi::start_batch_shard(
+                                                manifest, out, static_cast<uint32_t>(piece),
+                                                static_cast<uint32_t>(pieces > 0 ? pieces : 1)))
                     : dentsim::ffi::batch_merge(manifest, out,
                                                 static_cast<uint32_t>(pieces > 0 ? pieces : 1));
     const char* textNames[] = {"Case", "Scan", "Preparation", "Burr", "Tissue"};

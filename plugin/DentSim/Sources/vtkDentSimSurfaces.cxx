@@ -102,14 +102,16 @@ void FillTissueBlocks(const rust::Vec<ffi::TissueSurface>& surfaces, vtkMultiBlo
   }
 }
 
-rust::Vec<ffi::TissueSurface> RunJob(vtkAlgorithm* self, rust::Box<ffi::SurfaceJob> job) {
-  while (!job->finished()) {
-    self->UpdateProgress(job->progress());
-    if (self->GetAbortExecute()) job->abort();
+void FollowJob(vtkAlgorithm* self, const std::function<bool()>& finished,
+               const std::function<double()>& progress, const std::function<void()>& abort) {
+  // VTK 9.1's executive does not clear an abort that ended the previous run.
+  self->SetAbortExecute(0);
+  while (!finished()) {
+    self->UpdateProgress(progress());
+    if (self->GetAbortExecute()) abort();
     std::this_thread::sleep_for(std::chrono::milliseconds(25));
   }
   self->UpdateProgress(1.0);
-  return job->wait();
 }
 
 bool IsPieceZero(vtkInformationVector* outputVector) {

@@ -1,6 +1,7 @@
 // Turns tissue surfaces from the Rust core into VTK polydata blocks. Private to the plugin.
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "rust/cxx.h"  // rust::Error, the exception cxx throws for an Err
@@ -17,9 +18,19 @@ namespace dentsim {
 // `Colour`, `Opacity`, and volumes before/after/removed (mm^3).
 void FillTissueBlocks(const rust::Vec<ffi::TissueSurface>& surfaces, vtkMultiBlockDataSet* out);
 
-// Waits for a job of the Rust core, passing its progress to `self` (ParaView's progress bar) and
-// `self`'s AbortExecute to the job; returns the surfaces or throws rust::Error.
-rust::Vec<ffi::TissueSurface> RunJob(vtkAlgorithm* self, rust::Box<ffi::SurfaceJob> job);
+// Polls until `finished()`, passing progress to `self` (ParaView's progress bar) and `self`'s
+// AbortExecute to the job.
+void FollowJob(vtkAlgorithm* self, const std::function<bool()>& finished,
+               const std::function<double()>& progress, const std::function<void()>& abort);
+
+// Waits for a job of the Rust core as FollowJob does; returns its result or throws rust::Error.
+template <class Job>
+auto RunJob(vtkAlgorithm* self, rust::Box<Job> job) {
+  FollowJob(
+      self, [&] { return job->finished(); }, [&] { return job->progress(); },
+      [&] { job->abort(); });
+  return job->wait();
+}
 
 // Under MPI every rank runs the pipeline and asks for its own piece: the work is one piece,
 // made by the rank asked for piece 0; the others answer with empty outputs.

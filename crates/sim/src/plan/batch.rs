@@ -190,13 +190,24 @@ impl Shard {
 /// Runs this shard's cases, writing each into `out/cases/<case>/` (prepared `tissues.vdb` and
 /// [`CASE_FILE`], whole or not at all); `progress(case, fraction of the shard)` before each.
 pub fn run_shard(manifest: &Manifest, out: &Path, shard: Shard, table: &TissueTable, progress: &mut dyn FnMut(&str, f64)) -> Result<Vec<CaseReport>> {
+    run_shard_until(manifest, out, shard, table, &mut |case, f| {
+        progress(case, f);
+        true
+    })
+}
+
+/// As [`run_shard`]; when `go_on(case, fraction)` returns false no further case starts (the
+/// cases written stay) and the call ends with an error saying so.
+pub fn run_shard_until(manifest: &Manifest, out: &Path, shard: Shard, table: &TissueTable, go_on: &mut dyn FnMut(&str, f64) -> bool) -> Result<Vec<CaseReport>> {
     let cases = manifest.cases();
     let range = shard.range(cases.len());
     let total = range.len().max(1);
     let mut loaded: HashMap<usize, TissueModel> = HashMap::new();
     let mut reports = Vec::new();
     for (k, case) in cases[range].iter().enumerate() {
-        progress(&case.name, k as f64 / total as f64);
+        if !go_on(&case.name, k as f64 / total as f64) {
+            return Err(invalid(format!("batch shard {}/{}", shard.index, shard.count), format!("stopped on request before case '{}'", case.name)));
+        }
         let clock = Instant::now();
         let scan = &manifest.scans[case.scan];
         let prep = &manifest.preparations[case.preparation];
@@ -233,7 +244,7 @@ pub fn run_shard(manifest: &Manifest, out: &Path, shard: Shard, table: &TissueTa
         })?;
         reports.push(record);
     }
-    progress("done", 1.0);
+    go_on("done", 1.0);
     Ok(reports)
 }
 
