@@ -82,10 +82,12 @@ int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector
   for (int i = 0; i < 3; ++i) params.seed_mm[i] = this->SeedPoint[i];
   try {
     dentsim::FillTissueBlocks(
-        dentsim::ffi::tissues_from_scan(geometry, rust::Slice<const float>(values.data(), values.size()),
-                                    params),
+        dentsim::RunJob(this, dentsim::ffi::start_tissues_from_scan(
+                                  geometry, rust::Slice<const float>(values.data(), values.size()),
+                                  params)),
         vtkMultiBlockDataSet::GetData(outputVector, 0));
   } catch (const rust::Error& e) {
+    vtkMultiBlockDataSet::GetData(outputVector, 0)->Initialize();
     vtkErrorMacro(<< "DentSim: " << e.what());
     return 0;
   }
