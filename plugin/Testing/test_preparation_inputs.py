@@ -115,4 +115,21 @@ check(servermanager.Fetch(prep, idx=1).GetNumberOfRows() == 0, "no stale table a
 prep.ToolPathFileCSV = csv
 prep.UpdatePipeline()
 check(removed(prep) == from_csv, "recovers after the error")
+# 6. A Python trace of the GUI-like workflow (it writes ToolPath=None) replays to the same cut.
+from paraview import smtrace  # noqa: E402
+
+smtrace.start_trace()
+traced_stroke = DentalPhantomStroke(VoxelSizemm=0.1, BurrDiametermm=0.5,
+                                    StrokeStartmm=[20.0, 20.0, 20.0], StrokeEndmm=[21.0, 20.0, 20.0])
+simple.SetActiveSource(traced_stroke)
+traced = DentalPreparation(Tissues=traced_stroke, TissueVoxelSizemm=0.1, ToolPathFileCSV=csv)
+traced.UpdatePipeline()
+trace = smtrace.stop_trace()
+check("ToolPath=None" in trace and "Tissues=" in trace, "the trace names both inputs: %s" % trace)
+replay = {}
+exec(compile(trace, "trace", "exec"), dict(globals()), replay)
+replayed = [v for v in replay.values() if hasattr(v, "GetXMLName") and v.GetXMLName() == "DentSimPreparation"]
+check(len(replayed) == 1, "the trace makes one preparation")
+replayed[0].UpdatePipeline()
+check(removed(replayed[0]) == removed(traced), "the trace replays the cut: %s vs %s" % (removed(replayed[0]), removed(traced)))
 print("PASSED test_preparation_inputs")
