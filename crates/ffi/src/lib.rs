@@ -873,6 +873,53 @@ mod tests {
     }
 
     #[test]
+    fn a_preparation_job_cuts_upstream_surfaces_and_stops_when_aborted() {
+        let (points, orientation) = groove();
+        let upstream = phantom_stroke(&StrokeParams { voxel_size_mm: 0.1, start_mm: [20.0; 3], end_mm: [21.0, 20.0, 20.0], ..default_stroke() }).unwrap();
+        let inputs: Vec<InputSurface> =
+            upstream.iter().map(|s| InputSurface { name: s.name.clone(), points: s.points.clone(), triangles: s.triangles.clone() }).collect();
+        let mut job = start_preparation(&groove_params("round:1.0"), &inputs, 0.1, &points, &orientation, &[], &[], &[]).unwrap();
+        let surfaces = job.wait().unwrap();
+        assert_eq!(job.progress(), 1.0);
+        let direct = prepare_tissues(&groove_params("round:1.0"), &points, &orientation, &[], &[], &[]).unwrap();
+        let (ours, theirs) = (surfaces[0].removed_mm3, direct[0].removed_mm3);
+        assert!((ours / theirs - 1.0).abs() < 0.05, "enamel removed from rebuilt tissues {ours} vs {theirs}");
+
+        let job = start_preparation(&groove_params("round:1.0"), &inputs, 0.1, &points, &orientation, &[], &[], &[]).unwrap();
+        job.abort();
+        let mut job = job;
+        let err = job.wait().err().expect("aborted");
+        assert!(err.contains(dentsim_sim::plan::prepare::ABORTED), "{err}");
+
+        let bad = vec![InputSurface { name: "burr".into(), ..inputs[0].clone_surface() }];
+        let err = start_preparation(&groove_params("round:1.0"), &bad, 0.1, &points, &orientation, &[], &[], &[]).unwrap().wait().err().unwrap();
+        assert!(err.contains("Tissues block 'burr'"), "{err}");
+    }
+
+    impl InputSurface {
+        fn clone_surface(&self) -> InputSurface {
+            InputSurface { name: self.name.clone(), points: self.points.clone(), triangles: self.triangles.clone() }
+        }
+    }
+
+    #[test]
+    fn the_tissue_colours_are_the_tables_as_paraview_settings() {
+        let settings: serde_json::Value = serde_json::from_str(&tissue_colour_settings()).unwrap();
+        let lut = &settings["array_lookup_tables"]["Tissue"]["PVLookupTable"];
+        assert_eq!(lut["IndexedLookup"], 1);
+        let names: Vec<&str> = lut["Annotations"].as_array().unwrap().iter().skip(1).step_by(2).map(|v| v.as_str().unwrap()).collect();
+        let table = TissueTable::default();
+        let enamel = table.get("enamel").unwrap();
+        let i = names.iter().position(|n| *n == "enamel").unwrap();
+        assert_eq!(lut["Annotations"][2 * i], enamel.label.to_string());
+        assert!((lut["IndexedOpacities"][i].as_f64().unwrap() - f64::from(enamel.opacity)).abs() < 1e-6);
+        assert!(enamel.opacity < 1.0, "enamel is translucent in the table");
+        for c in 0..3 {
+            assert!((lut["IndexedColors"][3 * i + c].as_f64().unwrap() - f64::from(enamel.colour[c])).abs() < 1e-6);
+        }
+    }
+
+    #[test]
     fn surfaces_carry_tissue_properties() {
         let params = StrokeParams { voxel_size_mm: 0.1, ..default_stroke() };
         let surfaces = phantom_stroke(&params).unwrap();
