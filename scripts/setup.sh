@@ -12,12 +12,14 @@ export DENTSIM_PLUGIN_BUILD DENTSIM_PLUGIN
 
 # REFERENCE.md "Building on Debian 12": OpenVDB 10 (+ Boost headers, TBB, Imath), ParaView 5.11
 # with its Python modules and dev files, Xvfb for rendering, and the small real test files that
-# pydicom and nibabel ship; DejaVu Sans for the text in dentsim assess's report picture.
+# pydicom and nibabel ship; DejaVu Sans for the text in dentsim assess's report picture; mpiexec
+# for the plugin's MPI test; Qt's help tools for the plugin's help pages (from its XML docs).
 DENTSIM_APT_PACKAGES=(
   build-essential pkg-config cmake git ca-certificates curl
   libopenvdb-dev libboost-dev libtbb-dev libimath-dev libopenvdb-tools python3-openvdb
   paraview paraview-dev python3-paraview libopenmpi-dev libdouble-conversion-dev
   xvfb xauth fonts-dejavu-core
+  openmpi-bin qhelpgenerator-qt5 qtxmlpatterns5-dev-tools qttools5-dev
   python3-numpy python3-pydicom python3-nibabel
 )
 

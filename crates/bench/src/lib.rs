@@ -593,6 +593,62 @@ pub fn assess(tooth: &BenchTooth, cfg: BenchConfig) -> Result<BenchRow> {
     }
 }
 
+/// A cohort planned as two shards at once (two threads; under MPI, two ranks) against the same
+/// cases in one shard: the issue's goal is ≤ 0.6× the one shard's time (ratio ≥ 1.67), which needs
+/// two cores the rest of the machine leaves free. Two capsule phantoms × four grooves.
+pub fn batch_shards(cfg: BenchConfig) -> Result<BenchRow> {
+    use dentsim_sim::plan::batch::{run_shard, Manifest, Shard};
+    let dir = std::env::temp_dir().join(format!("dentsim-bench-batch-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).map_err(|e| dentsim_sim::error::invalid(dir.display().to_string(), e.to_string()))?;
+    let write = |name: &str, text: String| {
+        std::fs::write(dir.join(name), text).map_err(|e| dentsim_sim::error::invalid(name.to_string(), e.to_string()))
+    };
+    let mut preparations = Vec::new();
+    for (k, (burr, depth)) in [("round:1.0", 1.0), ("cylinder_flat:1.2:4", 0.8), ("round:1.4", 1.2), ("cylinder_flat:1.0:4", 1.4)].iter().enumerate() {
+        let mut csv = String::from("t,x,y,z,qw,qx,qy,qz,cut\n0,-1.5,0,5.6,1,0,0,0,0\n");
+        for i in 0..=60 {
+            let x = -1.5 + 0.05 * f64::from(i);
+            csv += &format!("{},{x},{},{},1,0,0,0,1\n", 0.01 * f64::from(i + 1), 0.3 * (k as f64 - 1.5), 5.0 - depth);
+        }
+        write(&format!("p{k}.csv"), csv)?;
+        preparations.push(format!(r#"{{"name": "p{k}", "path": "p{k}.csv", "burr": "{burr}"}}"#));
+    }
+    let manifest = format!(
+        r#"{{"scans": [{{"name": "a", "phantom": true, "voxel_mm": 0.05}}, {{"name": "b", "phantom": true, "voxel_mm": 0.06}}], "preparations": [{}]}}"#,
+        preparations.join(", ")
+    );
+    write("manifest.json", manifest)?;
+    let m = Manifest::read(&dir.join("manifest.json"))?;
+    let table = TissueTable::default();
+    let reps = (cfg.repetitions / 100).clamp(1, 3);
+    let mut failure = None;
+    let ours = Timings::measure(reps, 1, |i| {
+        let out = dir.join(format!("two-{i}"));
+        let results: Vec<_> = std::thread::scope(|scope| {
+            let shards: Vec<_> = (0..2).map(|k| {
+                let (m, out, table) = (&m, &out, &table);
+                scope.spawn(move || run_shard(m, out, Shard { index: k, count: 2 }, table, &mut |_, _| {}))
+            }).collect();
+            shards.into_iter().map(|h| h.join().expect("shard thread")).collect()
+        });
+        for r in results {
+            if let Err(e) = r {
+                failure.get_or_insert(e);
+            }
+        }
+    });
+    let peer = Timings::measure(reps, 1, |i| {
+        if let Err(e) = run_shard(&m, &dir.join(format!("one-{i}")), Shard::WHOLE, &table, &mut |_, _| {}) {
+            failure.get_or_insert(e);
+        }
+    });
+    let _ = std::fs::remove_dir_all(&dir);
+    match failure {
+        Some(e) => Err(e),
+        None => Ok(BenchRow::new("batch_2_shards", &ours, "the same 8 cases as one shard (goal: ratio ≥ 1.67)", &peer)),
+    }
+}
+
 /// Every row, in a fixed order; `progress(row name)` is called before each.
 pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<BenchRow>> {
     progress("building the tooth");
@@ -620,5 +676,7 @@ pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<B
     rows.push(assess(model, cfg)?);
     progress("loop_period");
     rows.extend(loop_period(model, cfg.session_seconds)?);
+    progress("batch_2_shards");
+    rows.push(batch_shards(cfg)?);
     Ok(rows)
 }

@@ -1,6 +1,7 @@
 //! `dentsim`: batch preparation planning and measurement from the command line.
 mod args;
 mod assess;
+mod batch;
 mod bench;
 mod demo;
 mod phantom;
@@ -38,6 +39,8 @@ enum Command {
     Replay(replay::Args),
     /// Grade a preparation: removed, over- and under-cut volumes, deviation, dentin over the pulp.
     Assess(assess::Args),
+    /// Plan a cohort: every scan × preparation of a manifest, whole or one shard, and one report.
+    Batch(batch::Args),
 }
 
 fn main() -> anyhow::Result<()> {
@@ -50,5 +53,6 @@ fn main() -> anyhow::Result<()> {
         Command::Session(args) => session::run(&args),
         Command::Replay(args) => replay::run(&args),
         Command::Assess(args) => assess::run(&args),
+        Command::Batch(args) => batch::run(&args),
     }
 }

@@ -99,7 +99,29 @@ mod bridge {
         pulp_exposure_events: u64,
     }
 
+    /// A tissue surface from upstream in the pipeline (one block: name, x,y,z per point,
+    /// three point ids per triangle).
+    struct InputSurface {
+        name: String,
+        points: Vec<f32>,
+        triangles: Vec<u32>,
+    }
+
+    /// One row of a batch report: a case's tissue ("Dental Batch Plan"; see `dentsim batch`).
+    struct BatchRow {
+        case_name: String,
+        scan: String,
+        preparation: String,
+        burr: String,
+        tissue: String,
+        removed_mm3: f64,
+        volume_before_mm3: f64,
+        volume_after_mm3: f64,
+        seconds: f64,
+    }
+
     /// A planned preparation ("Dental Preparation"): tissues, tool path, burr, force.
+    #[derive(Clone)]
     struct PreparationParams {
         /// A .vdb of tissues; empty for the built-in capsule phantom.
         tissues_path: String,
@@ -162,6 +184,51 @@ mod bridge {
     }
 
     extern "Rust" {
+        /// Work on a thread of its own that the plugin polls: progress, abort, result.
+        type SurfaceJob;
+        /// As `prepare_tissues`, on a thread; `tissues` (when not empty) are the tissue surfaces
+        /// to cut, rebuilt as level sets at `tissue_voxel_mm`, instead of the file or phantom.
+        fn start_preparation(
+            params: &PreparationParams,
+            tissues: &[InputSurface],
+            tissue_voxel_mm: f64,
+            points: &[f64],
+            orientation: &[f64],
+            time: &[f64],
+            rpm: &[f64],
+            cut: &[f64],
+        ) -> Result<Box<SurfaceJob>>;
+        /// Fraction done, 0..=1.
+        fn progress(self: &SurfaceJob) -> f64;
+        fn finished(self: &SurfaceJob) -> bool;
+        /// Asks the work to stop at its next check; `wait` then returns an error saying so.
+        fn abort(self: &SurfaceJob);
+        /// Blocks until the work ends; its surfaces or its error.
+        fn wait(self: &mut SurfaceJob) -> Result<Vec<TissueSurface>>;
+        /// As `tissues_from_scan`, on a thread (progress follows segmentation's steps; an abort
+        /// is honoured when segmentation returns).
+        fn start_tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Box<SurfaceJob>>;
+        /// The tissue table as ParaView settings: a categorical colour map for the cell array
+        /// `Tissue` (each tissue's colour, opacity and name), JSON for vtkSMSettings.
+        fn tissue_colour_settings() -> String;
+    }
+
+    extern "Rust" {
+        /// Runs shard `index` of `count` of the manifest's cases into `out` (as
+        /// `dentsim batch --shard`); the rows of the cases it ran.
+        fn batch_shard(manifest: &str, out: &str, index: u32, count: u32) -> Result<Vec<BatchRow>>;
+        /// Merges every case under `out` into report.csv/report.json (as `dentsim batch --merge`).
+        fn batch_merge(manifest: &str, out: &str, shards: u32) -> Result<Vec<BatchRow>>;
+        /// Batch work on a thread: as `batch_shard` (abort stops before the next case).
+        type RowsJob;
+        fn start_batch_shard(manifest: &str, out: &str, index: u32, count: u32) -> Result<Box<RowsJob>>;
+        fn progress(self: &RowsJob) -> f64;
+        fn finished(self: &RowsJob) -> bool;
+        fn abort(self: &RowsJob);
+        fn wait(self: &mut RowsJob) -> Result<Vec<BatchRow>>;
+    }
+
+    extern "Rust" {
         type HapticSession;
         fn default_session() -> SessionParams;
         fn start_session(params: &SessionParams) -> Result<Box<HapticSession>>;
@@ -180,7 +247,7 @@ mod bridge {
     }
 }
 
-pub use bridge::{AssessmentParams, AssessmentResult, AssessmentRow, ImageGeometry, PreparationParams, TissuesFromScanParams, SessionParams, SessionState, StrokeParams, TissueSurface};
+pub use bridge::{AssessmentParams, AssessmentResult, AssessmentRow, BatchRow, ImageGeometry, InputSurface, PreparationParams, TissuesFromScanParams, SessionParams, SessionState, StrokeParams, TissueSurface};
 
 /// Runs `f`, turning a panic into an error so it never unwinds into C++.
 fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
@@ -273,28 +340,26 @@ pub fn assess_preparation(params: &AssessmentParams) -> Result<AssessmentResult,
 
 /// One tooth's tissue surfaces from a scan already in memory (a ParaView reader's output).
 pub fn tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Vec<TissueSurface>, String> {
-    guarded("tissues from scan", || {
-        let d = geometry.direction;
-        let direction = [[d[0], d[3], d[6]], [d[1], d[4], d[7]], [d[2], d[5], d[8]]];
-        let source = dentsim_cbct::SourceInfo { format: "vtkImageData".into(), path: "ParaView input".into(), ..Default::default() };
-        let scan = dentsim_cbct::Volume::new(
-            geometry.dims.map(|n| n as usize),
-            geometry.spacing,
-            geometry.origin,
-            direction,
-            values.to_vec(),
-            source,
-        )
+    guarded("tissues from scan", || segment_scan(geometry, values.to_vec(), params, &mut |_| {}))
+}
+
+fn segment_scan(geometry: &ImageGeometry, values: Vec<f32>, params: &TissuesFromScanParams, progress: &mut dyn FnMut(f64)) -> Result<Vec<TissueSurface>, String> {
+    let d = geometry.direction;
+    let direction = [[d[0], d[3], d[6]], [d[1], d[4], d[7]], [d[2], d[5], d[8]]];
+    let source = dentsim_cbct::SourceInfo { format: "vtkImageData".into(), path: "ParaView input".into(), ..Default::default() };
+    let scan = dentsim_cbct::Volume::new(geometry.dims.map(|n| n as usize), geometry.spacing, geometry.origin, direction, values, source)
         .map_err(|e| format!("input image: {e}"))?;
-        let request = dentsim_sim::tissues::from_scan::TissuesFromScan {
-            voxel_size_mm: params.voxel_size_mm,
-            fdi: params.fdi,
-            seed_mm: params.use_seed.then_some(params.seed_mm),
-            ..Default::default()
-        };
-        let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
-        unchanged_surfaces(&model)
-    })
+    let request = dentsim_sim::tissues::from_scan::TissuesFromScan {
+        voxel_size_mm: params.voxel_size_mm,
+        fdi: params.fdi,
+        seed_mm: params.use_seed.then_some(params.seed_mm),
+        ..Default::default()
+    };
+    // Segmentation reports up to 0.9; meshing the surfaces is the rest.
+    let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, f| progress(0.9 * f)).map_err(|e| e.to_string())?;
+    let surfaces = unchanged_surfaces(&model);
+    progress(1.0);
+    surfaces
 }
 
 /// A tool path cut into the tissues (or the phantom); see `sim::prepare::PreparationRequest`.
@@ -306,28 +371,244 @@ pub fn prepare_tissues(
     rpm: &[f64],
     cut: &[f64],
 ) -> Result<Vec<TissueSurface>, String> {
-    guarded("dental preparation", || {
-        use dentsim_sim::plan::prepare::{PathSource, PreparationRequest};
-        let tissues = (!params.tissues_path.is_empty()).then(|| std::path::Path::new(params.tissues_path.as_str()));
-        let path = if params.use_polyline {
-            PathSource::Polyline(dentsim_sim::plan::path::PolylineArrays { points, orientation, time, rpm, cut })
-        } else if params.path_csv.is_empty() {
-            return Err("tool path: neither a polyline input nor a CSV file was given".into());
-        } else {
-            PathSource::Csv(std::path::Path::new(params.path_csv.as_str()))
-        };
-        let request = PreparationRequest {
-            tissues,
-            phantom_voxel_mm: params.phantom_voxel_mm,
-            path,
-            burr: &params.burr,
-            force_n: params.force_n,
-        };
-        let files = [("Tissues File", params.tissues_path.as_str()), ("Tool Path File (CSV)", params.path_csv.as_str())];
-        let prepared = request.run(&TissueTable::default()).map_err(|e| name_property(e.to_string(), &files))?;
-        cut_surfaces(&prepared.model, &prepared.tissues)
+    let path = OwnedPath { points: points.to_vec(), orientation: orientation.to_vec(), time: time.to_vec(), rpm: rpm.to_vec(), cut: cut.to_vec() };
+    guarded("dental preparation", || prepare_owned(params, None, &path, &mut |_| true))
+}
+
+/// A polyline's arrays, owned so that a job's thread can hold them.
+#[derive(Default)]
+struct OwnedPath {
+    points: Vec<f64>,
+    orientation: Vec<f64>,
+    time: Vec<f64>,
+    rpm: Vec<f64>,
+    cut: Vec<f64>,
+}
+
+fn prepare_owned(
+    params: &PreparationParams,
+    tissues: Option<dentsim_sim::tissues::model::TissueModel>,
+    p: &OwnedPath,
+    go_on: &mut dyn FnMut(f64) -> bool,
+) -> Result<Vec<TissueSurface>, String> {
+    use dentsim_sim::plan::prepare::{PathSource, PreparationRequest};
+    let path = if params.use_polyline {
+        let arrays = dentsim_sim::plan::path::PolylineArrays { points: &p.points, orientation: &p.orientation, time: &p.time, rpm: &p.rpm, cut: &p.cut };
+        PathSource::Polyline(arrays)
+    } else if params.path_csv.is_empty() {
+        return Err("Tool Path: neither a polyline input nor a Tool Path File (CSV) was given".into());
+    } else {
+        PathSource::Csv(std::path::Path::new(params.path_csv.as_str()))
+    };
+    let from_file = tissues.is_none() && !params.tissues_path.is_empty();
+    let request = PreparationRequest {
+        tissues: from_file.then(|| std::path::Path::new(params.tissues_path.as_str())),
+        phantom_voxel_mm: params.phantom_voxel_mm,
+        path,
+        burr: &params.burr,
+        force_n: params.force_n,
+    };
+    let files = [("Tissues File", params.tissues_path.as_str()), ("Tool Path File (CSV)", params.path_csv.as_str())];
+    let prepared = request.run_until(&TissueTable::default(), tissues, go_on).map_err(|e| name_property(e.to_string(), &files))?;
+    cut_surfaces(&prepared.model, &prepared.tissues)
+}
+
+/// A model rebuilt from the pipeline's tissue surfaces (the "Tissues" input).
+fn model_from_inputs(tissues: &[InputSurface], voxel_mm: f64) -> Result<dentsim_sim::tissues::model::TissueModel, String> {
+    let surfaces: Vec<(String, TriMesh)> = tissues
+        .iter()
+        .map(|s| {
+            let points = s.points.chunks_exact(3).map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect::<Vec<_>>();
+            if s.points.len() % 3 != 0 || s.triangles.len() % 3 != 0 || s.triangles.iter().any(|&i| i as usize >= points.len()) {
+                return Err(format!("Tissues: block '{}' is not a triangle surface", s.name));
+            }
+            let triangles = s.triangles.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
+            Ok((s.name.clone(), TriMesh { points, normals: Vec::new(), triangles }))
+        })
+        .collect::<Result<_, _>>()?;
+    dentsim_sim::tissues::model::TissueModel::from_surfaces("Tissues", &surfaces, voxel_mm, &TissueTable::default()).map_err(|e| e.to_string())
+}
+
+/// Work on its own thread: the plugin polls `progress`/`finished`, may `abort`, then `wait`s.
+pub struct Job<T: Send + 'static> {
+    progress: std::sync::Arc<std::sync::atomic::AtomicU64>,
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    handle: Option<std::thread::JoinHandle<Result<T, String>>>,
+}
+
+/// A job whose result is tissue surfaces (a preparation, a segmentation).
+pub type SurfaceJob = Job<Vec<TissueSurface>>;
+/// A job whose result is batch report rows.
+pub type RowsJob = Job<Vec<BatchRow>>;
+
+impl<T: Send + 'static> Job<T> {
+    /// Runs `work(go_on)` on a thread; `go_on(fraction)` books progress and says whether to go on.
+    fn spawn(what: &'static str, work: impl FnOnce(&mut dyn FnMut(f64) -> bool) -> Result<T, String> + Send + 'static) -> Result<Box<Self>, String> {
+        use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+        let progress = std::sync::Arc::new(AtomicU64::new(0f64.to_bits()));
+        let stop = std::sync::Arc::new(AtomicBool::new(false));
+        let (p, s) = (progress.clone(), stop.clone());
+        let handle = std::thread::Builder::new()
+            .name(what.into())
+            .spawn(move || {
+                guarded(what, move || {
+                    let result = work(&mut |f| {
+                        p.store(f.clamp(0.0, 1.0).to_bits(), Ordering::Relaxed);
+                        !s.load(Ordering::Relaxed)
+                    });
+                    // Work that cannot stop part-way still ends as aborted when asked to.
+                    match result {
+                        Ok(_) if s.load(Ordering::Relaxed) => Err(format!("{what}: {}", dentsim_sim::plan::prepare::ABORTED)),
+                        other => other,
+                    }
+                })
+            })
+            .map_err(|e| format!("{what}: cannot start a thread: {e}"))?;
+        Ok(Box::new(Job { progress, stop, handle: Some(handle) }))
+    }
+
+    fn progress(&self) -> f64 {
+        f64::from_bits(self.progress.load(std::sync::atomic::Ordering::Relaxed))
+    }
+
+    fn finished(&self) -> bool {
+        self.handle.as_ref().map_or(true, |h| h.is_finished())
+    }
+
+    fn abort(&self) {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    fn wait(&mut self) -> Result<T, String> {
+        match self.handle.take() {
+            Some(h) => h.join().unwrap_or_else(|_| Err("job: internal error".into())),
+            None => Err("job: already waited for".into()),
+        }
+    }
+}
+
+impl<T: Send + 'static> Drop for Job<T> {
+    fn drop(&mut self) {
+        self.abort();
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
+}
+
+pub fn start_tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Box<SurfaceJob>, String> {
+    let geometry = ImageGeometry { dims: geometry.dims, spacing: geometry.spacing, origin: geometry.origin, direction: geometry.direction };
+    let params = TissuesFromScanParams { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, use_seed: params.use_seed, seed_mm: params.seed_mm };
+    let values = values.to_vec();
+    Job::spawn("tissues from scan", move |go_on| segment_scan(&geometry, values, &params, &mut |f| {
+        go_on(f);
+    }))
+}
+
+pub fn start_batch_shard(manifest: &str, out: &str, index: u32, count: u32) -> Result<Box<RowsJob>, String> {
+    let (manifest, out) = (manifest.to_owned(), out.to_owned());
+    Job::spawn("batch plan", move |go_on| batch_shard_until(&manifest, &out, index, count, &mut |_, f| go_on(f)))
+}
+
+#[allow(clippy::too_many_arguments)]
+pub fn start_preparation(
+    params: &PreparationParams,
+    tissues: &[InputSurface],
+    tissue_voxel_mm: f64,
+    points: &[f64],
+    orientation: &[f64],
+    time: &[f64],
+    rpm: &[f64],
+    cut: &[f64],
+) -> Result<Box<SurfaceJob>, String> {
+    let params = params.clone();
+    let path = OwnedPath { points: points.to_vec(), orientation: orientation.to_vec(), time: time.to_vec(), rpm: rpm.to_vec(), cut: cut.to_vec() };
+    let tissues: Vec<InputSurface> = tissues.iter().map(|s| InputSurface { name: s.name.clone(), points: s.points.clone(), triangles: s.triangles.clone() }).collect();
+    Job::spawn("dental preparation", move |go_on| {
+        let model = if tissues.is_empty() { None } else { Some(model_from_inputs(&tissues, tissue_voxel_mm)?) };
+        prepare_owned(&params, model, &path, go_on)
     })
 }
+
+/// Label, name, colour and opacity of every tissue (and the session's burr, label 0) as the
+/// `array_lookup_tables` settings ParaView reads when it first colours by an array of that name.
+fn tissue_colour_settings() -> String {
+    let table = TissueTable::default();
+    let mut annotations = vec![serde_json::json!(BURR_LABEL.to_string()), serde_json::json!("burr")];
+    let mut colours: Vec<f32> = BURR_COLOUR.to_vec();
+    let mut opacities = vec![1.0f32];
+    for t in &table.tissues {
+        annotations.push(serde_json::json!(t.label.to_string()));
+        annotations.push(serde_json::json!(t.name));
+        colours.extend(t.colour);
+        opacities.push(t.opacity);
+    }
+    serde_json::json!({
+        "array_lookup_tables": { "Tissue": {
+            "Title": "Tissue",
+            "PVLookupTable": {
+                "IndexedLookup": 1,
+                "AnnotationsInitialized": 1,
+                "Annotations": annotations,
+                "IndexedColors": colours,
+                "IndexedOpacities": opacities,
+                "EnableOpacityMapping": 1,
+                // The legend lists the tissues present, not the whole table.
+                "ShowIndexedColorActiveValues": 1,
+            }
+        }}
+    })
+    .to_string()
+}
+
+fn batch_rows(reports: &[dentsim_sim::plan::batch::CaseReport]) -> Vec<BatchRow> {
+    let row = |r: &dentsim_sim::plan::batch::CaseReport, t: &TissueVolumes| BatchRow {
+        case_name: r.case.clone(),
+        scan: r.scan.clone(),
+        preparation: r.preparation.clone(),
+        burr: r.burr.clone(),
+        tissue: t.name.clone(),
+        removed_mm3: t.removed_mm3,
+        volume_before_mm3: t.volume_before_mm3,
+        volume_after_mm3: t.volume_after_mm3,
+        seconds: r.seconds,
+    };
+    reports.iter().flat_map(|r| r.tissues.iter().map(move |t| row(r, t))).collect()
+}
+
+fn read_manifest(manifest: &str) -> Result<dentsim_sim::plan::batch::Manifest, String> {
+    if manifest.trim().is_empty() {
+        return Err("Manifest File: no file given".into());
+    }
+    dentsim_sim::plan::batch::Manifest::read(std::path::Path::new(manifest)).map_err(|e| format!("Manifest File: {e}"))
+}
+
+fn batch_shard(manifest: &str, out: &str, index: u32, count: u32) -> Result<Vec<BatchRow>, String> {
+    guarded("batch plan", || batch_shard_until(manifest, out, index, count, &mut |_, _| true))
+}
+
+fn batch_shard_until(manifest: &str, out: &str, index: u32, count: u32, go_on: &mut dyn FnMut(&str, f64) -> bool) -> Result<Vec<BatchRow>, String> {
+    use dentsim_sim::plan::batch::{run_shard_until, Shard};
+    let m = read_manifest(manifest)?;
+    if out.trim().is_empty() {
+        return Err("Output Directory: no folder given".into());
+    }
+    let shard = Shard::new(index as usize, count as usize).map_err(|e| e.to_string())?;
+    let reports = run_shard_until(&m, std::path::Path::new(out), shard, &TissueTable::default(), go_on).map_err(|e| e.to_string())?;
+    Ok(batch_rows(&reports))
+}
+
+fn batch_merge(manifest: &str, out: &str, shards: u32) -> Result<Vec<BatchRow>, String> {
+    guarded("batch plan", || {
+        let m = read_manifest(manifest)?;
+        let reports = dentsim_sim::plan::batch::merge(&m, std::path::Path::new(out), shards as usize).map_err(|e| e.to_string())?;
+        Ok(batch_rows(&reports))
+    })
+}
+
+/// The burr's label and colour in the session's output (its `Tissue` cell array).
+const BURR_LABEL: i32 = 0;
+const BURR_COLOUR: [f32; 3] = [0.75, 0.75, 0.8];
 
 /// Surfaces of a cut model with each tissue's volume figures.
 fn cut_surfaces(model: &dentsim_sim::tissues::model::TissueModel, volumes: &[TissueVolumes]) -> Result<Vec<TissueSurface>, String> {
@@ -604,6 +885,53 @@ mod tests {
         let params = PreparationParams { use_polyline: false, path_csv: "/nonexistent/path.csv".into(), ..groove_params("round:1.0") };
         let err = prepare_tissues(&params, &[], &[], &[], &[], &[]).err().expect("refused");
         assert!(err.contains("/nonexistent/path.csv"), "{err}");
+    }
+
+    #[test]
+    fn a_preparation_job_cuts_upstream_surfaces_and_stops_when_aborted() {
+        let (points, orientation) = groove();
+        let upstream = phantom_stroke(&StrokeParams { voxel_size_mm: 0.1, start_mm: [20.0; 3], end_mm: [21.0, 20.0, 20.0], ..default_stroke() }).unwrap();
+        let inputs: Vec<InputSurface> =
+            upstream.iter().map(|s| InputSurface { name: s.name.clone(), points: s.points.clone(), triangles: s.triangles.clone() }).collect();
+        let mut job = start_preparation(&groove_params("round:1.0"), &inputs, 0.1, &points, &orientation, &[], &[], &[]).unwrap();
+        let surfaces = job.wait().unwrap();
+        assert_eq!(job.progress(), 1.0);
+        let direct = prepare_tissues(&groove_params("round:1.0"), &points, &orientation, &[], &[], &[]).unwrap();
+        let (ours, theirs) = (surfaces[0].removed_mm3, direct[0].removed_mm3);
+        assert!((ours / theirs - 1.0).abs() < 0.05, "enamel removed from rebuilt tissues {ours} vs {theirs}");
+
+        let job = start_preparation(&groove_params("round:1.0"), &inputs, 0.1, &points, &orientation, &[], &[], &[]).unwrap();
+        job.abort();
+        let mut job = job;
+        let err = job.wait().err().expect("aborted");
+        assert!(err.contains(dentsim_sim::plan::prepare::ABORTED), "{err}");
+
+        let bad = vec![InputSurface { name: "burr".into(), ..inputs[0].clone_surface() }];
+        let err = start_preparation(&groove_params("round:1.0"), &bad, 0.1, &points, &orientation, &[], &[], &[]).unwrap().wait().err().unwrap();
+        assert!(err.contains("Tissues block 'burr'"), "{err}");
+    }
+
+    impl InputSurface {
+        fn clone_surface(&self) -> InputSurface {
+            InputSurface { name: self.name.clone(), points: self.points.clone(), triangles: self.triangles.clone() }
+        }
+    }
+
+    #[test]
+    fn the_tissue_colours_are_the_tables_as_paraview_settings() {
+        let settings: serde_json::Value = serde_json::from_str(&tissue_colour_settings()).unwrap();
+        let lut = &settings["array_lookup_tables"]["Tissue"]["PVLookupTable"];
+        assert_eq!(lut["IndexedLookup"], 1);
+        let names: Vec<&str> = lut["Annotations"].as_array().unwrap().iter().skip(1).step_by(2).map(|v| v.as_str().unwrap()).collect();
+        let table = TissueTable::default();
+        let enamel = table.get("enamel").unwrap();
+        let i = names.iter().position(|n| *n == "enamel").unwrap();
+        assert_eq!(lut["Annotations"][2 * i], enamel.label.to_string());
+        assert!((lut["IndexedOpacities"][i].as_f64().unwrap() - f64::from(enamel.opacity)).abs() < 1e-6);
+        assert!(enamel.opacity < 1.0, "enamel is translucent in the table");
+        for c in 0..3 {
+            assert!((lut["IndexedColors"][3 * i + c].as_f64().unwrap() - f64::from(enamel.colour[c])).abs() < 1e-6);
+        }
     }
 
     #[test]

@@ -114,6 +114,10 @@ void AddGuidance(vtkPolyData* burr, const dentsim::ffi::SessionState& s) {
 int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**,
                                          vtkInformationVector* outputVector) {
   auto* output = vtkMultiBlockDataSet::GetData(outputVector, 0);
+  if (!dentsim::IsPieceZero(outputVector)) {
+    output->Initialize();  // one session, on the rank asked for piece 0
+    return 1;
+  }
   auto& in = *this->Internal;
   dentsim::ffi::SessionParams params = dentsim::ffi::default_session();
   params.tissues_path = Str(this->TissuesFile);

@@ -23,6 +23,8 @@ vtkDentSimPhantomStroke::vtkDentSimPhantomStroke() {
 int vtkDentSimPhantomStroke::RequestData(vtkInformation*, vtkInformationVector**,
                                          vtkInformationVector* outputVector) {
   auto* output = vtkMultiBlockDataSet::GetData(outputVector, 0);
+  output->Initialize();
+  if (!dentsim::IsPieceZero(outputVector)) return 1;
   dentsim::ffi::StrokeParams params{};
   params.voxel_size_mm = this->VoxelSize;
   params.burr_diameter_mm = this->BurrDiameter;

@@ -22,7 +22,7 @@
 vtkStandardNewMacro(vtkDentSimPreparation);
 
 vtkDentSimPreparation::vtkDentSimPreparation() {
-  this->SetNumberOfInputPorts(1);
+  this->SetNumberOfInputPorts(3);
   this->SetNumberOfOutputPorts(2);
   this->SetBurr("round:1.0");
 }
@@ -33,8 +33,10 @@ vtkDentSimPreparation::~vtkDentSimPreparation() {
   this->SetBurr(nullptr);
 }
 
-int vtkDentSimPreparation::FillInputPortInformation(int, vtkInformation* info) {
-  info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkPolyData");
+int vtkDentSimPreparation::FillInputPortInformation(int port, vtkInformation* info) {
+  // 0: unused (see the header); 1: tissues; 2: tool path.
+  info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(),
+            port == 1 ? "vtkMultiBlockDataSet" : port == 2 ? "vtkPolyData" : "vtkDataObject");
   info->Set(vtkAlgorithm::INPUT_IS_OPTIONAL(), 1);
   return 1;
 }
@@ -120,8 +122,15 @@ int vtkDentSimPreparation::RequestData(vtkInformation*, vtkInformationVector** i
   params.force_n = this->Force;
   params.path_csv = this->ToolPathFile ? this->ToolPathFile : "";
 
+  // A failed run leaves empty outputs, not the previous result.
+  vtkMultiBlockDataSet* blocks = vtkMultiBlockDataSet::GetData(outputVector, 0);
+  vtkTable* table = vtkTable::GetData(outputVector, 1);
+  blocks->Initialize();
+  table->Initialize();
+  if (!dentsim::IsPieceZero(outputVector)) return 1;
+
   std::vector<double> points, orientation, time, rpm, cut;
-  vtkPolyData* path = vtkPolyData::GetData(inputVector[0], 0);
+  vtkPolyData* path = vtkPolyData::GetData(inputVector[2], 0);
   params.use_polyline = path != nullptr;
   if (path) {
     std::vector<vtkIdType> order;
@@ -132,7 +141,7 @@ int vtkDentSimPreparation::RequestData(vtkInformation*, vtkInformationVector** i
               PathArray(path, "RPM", 1, false, order, rpm, error) &&
               PathArray(path, "Cut", 1, false, order, cut, error);
     if (!ok) {
-      vtkErrorMacro(<< "DentSim: " << error);
+      vtkErrorMacro(<< "DentSim: Tool Path: " << error);
       return 0;
     }
     for (vtkIdType id : order) {
@@ -142,12 +151,24 @@ int vtkDentSimPreparation::RequestData(vtkInformation*, vtkInformationVector** i
     }
   }
 
-  try {
-    auto surfaces = dentsim::ffi::prepare_tissues(params, Slice(points), Slice(orientation),
-                                                  Slice(time), Slice(rpm), Slice(cut));
-    dentsim::FillTissueBlocks(surfaces, vtkMultiBlockDataSet::GetData(outputVector, 0));
+  std::vector<dentsim::ffi::InputSurface> tissues;
+  if (vtkMultiBlockDataSet* input = vtkMultiBlockDataSet::GetData(inputVector[1], 0)) {
+    tissues = dentsim::InputSurfaces(input);
+    if (tissues.empty()) {
+      vtkErrorMacro(<< "DentSim: Tissues: the input holds no tissue surfaces");
+      return 0;
+    }
+  }
 
-    vtkTable* table = vtkTable::GetData(outputVector, 1);
+  try {
+    auto surfaces = dentsim::RunJob(
+        this, dentsim::ffi::start_preparation(
+                  params,
+                  rust::Slice<const dentsim::ffi::InputSurface>(tissues.data(), tissues.size()),
+                  this->TissueVoxelSize, Slice(points), Slice(orientation), Slice(time),
+                  Slice(rpm), Slice(cut)));
+    dentsim::FillTissueBlocks(surfaces, blocks);
+
     vtkNew<vtkStringArray> tissue;
     tissue->SetName("Tissue");
     vtkNew<vtkDoubleArray> removed, before, after;
@@ -165,6 +186,8 @@ int vtkDentSimPreparation::RequestData(vtkInformation*, vtkInformationVector** i
     table->AddColumn(before);
     table->AddColumn(after);
   } catch (const rust::Error& e) {
+    blocks->Initialize();
+    table->Initialize();
     vtkErrorMacro(<< "DentSim: " << e.what());
     return 0;
   }
@@ -174,6 +197,7 @@ int vtkDentSimPreparation::RequestData(vtkInformation*, vtkInformationVector** i
 void vtkDentSimPreparation::PrintSelf(ostream& os, vtkIndent indent) {
   this->Superclass::PrintSelf(os, indent);
   os << indent << "TissuesFile: " << (this->TissuesFile ? this->TissuesFile : "(phantom)") << "\n";
+  os << indent << "TissueVoxelSize: " << this->TissueVoxelSize << " mm\n";
   os << indent << "PhantomVoxelSize: " << this->PhantomVoxelSize << " mm\n";
   os << indent << "ToolPathFile: " << (this->ToolPathFile ? this->ToolPathFile : "") << "\n";
   os << indent << "Burr: " << (this->Burr ? this->Burr : "") << "\n";

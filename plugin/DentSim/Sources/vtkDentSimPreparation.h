@@ -1,6 +1,9 @@
 // "Dental Preparation": cuts a tool path into tissues with a burr, all in the Rust core.
-// Tissues: the .vdb at TissuesFile (level sets named by tissue), or the built-in capsule phantom
-// when it is empty. Tool path: the optional input (a vtkPolyData polyline whose points carry
+// Tissues: the optional input on port 1 (a multiblock of tissue surfaces named by tissue, e.g.
+// Tissues From Scan's or the reader's output, rebuilt as level sets at TissueVoxelSize), else the
+// .vdb at TissuesFile (level sets named by tissue), else the built-in capsule phantom. Port 0 is
+// never connected: ParaView binds a new proxy's port-0 input to the active source, and neither
+// input may be bound by surprise. Tool path: the optional input on port 2 (a vtkPolyData polyline whose points carry
 // `Orientation`, 4 components w,x,y,z, and optionally `Time` (s), `RPM`, `Cut` (0/1)), else the
 // CSV at ToolPathFile (t,x,y,z,qw,qx,qy,qz[,rpm][,cut]). Burr: a spec (`round:1.0`, an ISO
 // number, a catalogue name). Force 0 cuts geometrically; above 0 (N) the cut is rate-limited by
@@ -20,6 +23,8 @@ public:
 
   vtkSetStringMacro(TissuesFile);
   vtkGetStringMacro(TissuesFile);
+  vtkSetMacro(TissueVoxelSize, double);
+  vtkGetMacro(TissueVoxelSize, double);
   vtkSetMacro(PhantomVoxelSize, double);
   vtkGetMacro(PhantomVoxelSize, double);
   vtkSetStringMacro(ToolPathFile);
@@ -38,6 +43,7 @@ protected:
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
   char* TissuesFile = nullptr;
+  double TissueVoxelSize = 0.05;
   double PhantomVoxelSize = 0.05;
   char* ToolPathFile = nullptr;
   char* Burr = nullptr;

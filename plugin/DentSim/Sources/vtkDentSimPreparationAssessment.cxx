@@ -37,6 +37,9 @@ int vtkDentSimPreparationAssessment::FillOutputPortInformation(int port, vtkInfo
 
 int vtkDentSimPreparationAssessment::RequestData(vtkInformation*, vtkInformationVector**,
                                                  vtkInformationVector* outputVector) {
+  vtkPolyData::GetData(outputVector, 0)->Initialize();
+  vtkTable::GetData(outputVector, 1)->Initialize();
+  if (!dentsim::IsPieceZero(outputVector)) return 1;
   auto text = [](const char* s) { return rust::String(s ? s : ""); };
   dentsim::ffi::AssessmentParams params{text(this->PreparedFile), text(this->OriginalFile),
                                         text(this->ReferenceFile), this->Kind == 1, this->UseAxis,

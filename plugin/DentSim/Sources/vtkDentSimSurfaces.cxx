@@ -15,7 +15,14 @@
 #include <vtkPolyData.h>
 #include <vtkStringArray.h>
 
+#include <vtkAlgorithm.h>
+#include <vtkDataObjectTreeIterator.h>
+#include <vtkInformationVector.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
+
+#include <chrono>
 #include <string>
+#include <thread>
 
 namespace {
 
@@ -93,6 +100,54 @@ void FillTissueBlocks(const rust::Vec<ffi::TissueSurface>& surfaces, vtkMultiBlo
     out->GetMetaData(i)->Set(vtkCompositeDataSet::NAME(), std::string(s.name).c_str());
     ++i;
   }
+}
+
+void FollowJob(vtkAlgorithm* self, const std::function<bool()>& finished,
+               const std::function<double()>& progress, const std::function<void()>& abort) {
+  // VTK 9.1's executive does not clear an abort that ended the previous run.
+  self->SetAbortExecute(0);
+  while (!finished()) {
+    self->UpdateProgress(progress());
+    if (self->GetAbortExecute()) abort();
+    std::this_thread::sleep_for(std::chrono::milliseconds(25));
+  }
+  self->UpdateProgress(1.0);
+}
+
+bool IsPieceZero(vtkInformationVector* outputVector) {
+  vtkInformation* info = outputVector->GetInformationObject(0);
+  const auto key = vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER();
+  return !info->Has(key) || info->Get(key) <= 0;
+}
+
+std::vector<ffi::InputSurface> InputSurfaces(vtkMultiBlockDataSet* blocks) {
+  std::vector<ffi::InputSurface> out;
+  vtkSmartPointer<vtkDataObjectTreeIterator> it;
+  it.TakeReference(blocks->NewTreeIterator());
+  for (it->InitTraversal(); !it->IsDoneWithTraversal(); it->GoToNextItem()) {
+    vtkPolyData* pd = vtkPolyData::SafeDownCast(it->GetCurrentDataObject());
+    if (!pd) continue;
+    ffi::InputSurface s;
+    const char* name = it->GetCurrentMetaData()->Get(vtkCompositeDataSet::NAME());
+    s.name = name ? name : "";
+    for (vtkIdType i = 0; i < pd->GetNumberOfPoints(); ++i) {
+      double p[3];
+      pd->GetPoint(i, p);
+      for (double c : p) s.points.push_back(static_cast<float>(c));
+    }
+    vtkCellArray* polys = pd->GetPolys();
+    vtkIdType n = 0;
+    const vtkIdType* ids = nullptr;
+    for (polys->InitTraversal(); polys->GetNextCell(n, ids);) {
+      for (vtkIdType k = 1; k + 1 < n; ++k) {  // fan: a triangle stays one triangle
+        s.triangles.push_back(static_cast<uint32_t>(ids[0]));
+        s.triangles.push_back(static_cast<uint32_t>(ids[k]));
+        s.triangles.push_back(static_cast<uint32_t>(ids[k + 1]));
+      }
+    }
+    out.push_back(std::move(s));
+  }
+  return out;
 }
 
 }  // namespace dentsim

@@ -25,6 +25,8 @@ int vtkDentSimTissueReader::CanReadFile(const char* fileName) {
 
 int vtkDentSimTissueReader::RequestData(vtkInformation*, vtkInformationVector**,
                                         vtkInformationVector* outputVector) {
+  vtkMultiBlockDataSet::GetData(outputVector, 0)->Initialize();
+  if (!dentsim::IsPieceZero(outputVector)) return 1;
   if (!this->FileName || !*this->FileName) {
     vtkErrorMacro(<< "DentSim: no file name given");
     return 0;

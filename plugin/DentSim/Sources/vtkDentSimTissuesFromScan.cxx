@@ -8,6 +8,7 @@
 #include <vtkMultiBlockDataSet.h>
 #include <vtkObjectFactory.h>
 #include <vtkPointData.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
 
 #include <vector>
 
@@ -22,8 +23,30 @@ int vtkDentSimTissuesFromScan::FillInputPortInformation(int, vtkInformation* inf
   return 1;
 }
 
+int vtkDentSimTissuesFromScan::RequestUpdateExtent(vtkInformation*,
+                                                   vtkInformationVector** inputVector,
+                                                   vtkInformationVector* outputVector) {
+  // Segmentation needs the whole scan: the rank asked for piece 0 reads all of it, the others
+  // nothing (under MPI a reader would otherwise hand each rank a slab).
+  vtkInformation* in = inputVector[0]->GetInformationObject(0);
+  if (dentsim::IsPieceZero(outputVector)) {
+    in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_PIECE_NUMBER(), 0);
+    in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_NUMBER_OF_PIECES(), 1);
+    if (in->Has(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT())) {
+      in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(),
+              in->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT()), 6);
+    }
+  } else {
+    const int empty[6] = {0, -1, 0, -1, 0, -1};
+    in->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), empty, 6);
+  }
+  return 1;
+}
+
 int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector** inputVector,
                                          vtkInformationVector* outputVector) {
+  vtkMultiBlockDataSet::GetData(outputVector, 0)->Initialize();
+  if (!dentsim::IsPieceZero(outputVector)) return 1;
   vtkImageData* image = vtkImageData::GetData(inputVector[0], 0);
   vtkDataArray* scalars = image ? image->GetPointData()->GetScalars() : nullptr;
   if (!scalars) {
@@ -59,10 +82,12 @@ int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector
   for (int i = 0; i < 3; ++i) params.seed_mm[i] = this->SeedPoint[i];
   try {
     dentsim::FillTissueBlocks(
-        dentsim::ffi::tissues_from_scan(geometry, rust::Slice<const float>(values.data(), values.size()),
-                                    params),
+        dentsim::RunJob(this, dentsim::ffi::start_tissues_from_scan(
+                                  geometry, rust::Slice<const float>(values.data(), values.size()),
+                                  params)),
         vtkMultiBlockDataSet::GetData(outputVector, 0));
   } catch (const rust::Error& e) {
+    vtkMultiBlockDataSet::GetData(outputVector, 0)->Initialize();
     vtkErrorMacro(<< "DentSim: " << e.what());
     return 0;
   }

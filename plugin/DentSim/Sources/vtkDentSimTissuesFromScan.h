@@ -27,6 +27,7 @@ protected:
   vtkDentSimTissuesFromScan();
   ~vtkDentSimTissuesFromScan() override = default;
   int FillInputPortInformation(int port, vtkInformation* info) override;
+  int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
 
   double VoxelSize = 0.05;

@@ -1,4 +1,5 @@
 //! Planning: tool paths cut into preparations, the phantom stroke, the demo.
+pub mod batch;
 pub mod demo;
 pub mod path;
 pub mod phantom_stroke;

@@ -66,6 +66,24 @@ pub fn prepare_with_progress(
     options: &PrepareOptions,
     progress: &mut dyn FnMut(f64),
 ) -> Result<PrepareReport> {
+    prepare_until(model, path, burr, options, &mut |f| {
+        progress(f);
+        true
+    })
+}
+
+/// What a preparation stopped by its caller returns (the model is then partly cut).
+pub const ABORTED: &str = "stopped on request before the end of the tool path";
+
+/// Cuts `path` into `model`, calling `go_on(fraction)` after each segment; when it returns
+/// false the cut stops there with an error ([`ABORTED`]): how a GUI's abort reaches the loop.
+pub fn prepare_until(
+    model: &mut TissueModel,
+    path: &ToolPath,
+    burr: &Burr,
+    options: &PrepareOptions,
+    go_on: &mut dyn FnMut(f64) -> bool,
+) -> Result<PrepareReport> {
     let mut cutter = Cutter::default();
     let mut report = PrepareReport { burr: burr.spec(), ..Default::default() };
     for t in &model.tissues {
@@ -109,13 +127,15 @@ pub fn prepare_with_progress(
         stroke.length_mm += (b.pose.translation - a.pose.translation).length();
         report.segments += 1;
         report.substeps += r.substeps;
-        progress((i + 1) as f64 / (n - 1).max(1) as f64);
+        if !go_on((i + 1) as f64 / (n - 1).max(1) as f64) {
+            return Err(crate::error::invalid("preparation", ABORTED));
+        }
     }
     if let Some(s) = open.take() {
         cutter.end_stroke();
         report.strokes.push(s);
     }
-    progress(1.0);
+    go_on(1.0);
     Ok(report)
 }
 
@@ -218,6 +238,18 @@ impl PreparationRequest<'_> {
     /// Checks every input before any work (bad burr, path or force → an error naming it), then
     /// loads or builds the tissues and cuts the path. Cost: one swept cut per path segment.
     pub fn run(&self, table: &crate::tissues::table::TissueTable) -> Result<Prepared> {
+        self.run_until(table, None, &mut |_| true)
+    }
+
+    /// As [`run`](Self::run), cutting `tissues` when given (a model built elsewhere, e.g. from
+    /// an upstream filter's surfaces) instead of `self.tissues`/the phantom, and stopping when
+    /// `go_on(fraction)` returns false (see [`prepare_until`]).
+    pub fn run_until(
+        &self,
+        table: &crate::tissues::table::TissueTable,
+        tissues: Option<TissueModel>,
+        go_on: &mut dyn FnMut(f64) -> bool,
+    ) -> Result<Prepared> {
         use crate::error::invalid;
         if !(self.force_n.is_finite() && self.force_n >= 0.0) {
             return Err(invalid("force", format!("{} N, expected 0 (geometric) or a positive force", self.force_n)));
@@ -228,16 +260,17 @@ impl PreparationRequest<'_> {
             PathSource::Csv(p) => ToolPath::read(p, limits)?,
             PathSource::Polyline(a) => ToolPath::from_polyline(&a, "tool path", limits)?,
         };
-        let mut model = match self.tissues {
-            Some(p) => TissueModel::load(p, table)?,
-            None => {
+        let mut model = match (tissues, self.tissues) {
+            (Some(model), _) => model,
+            (None, Some(p)) => TissueModel::load(p, table)?,
+            (None, None) => {
                 crate::tissues::capsule::check_voxel_mm("phantom voxel size", self.phantom_voxel_mm)?;
                 crate::tissues::capsule::CapsuleTooth::default().build(self.phantom_voxel_mm, table)?
             }
         };
         let before = model.volumes();
         let options = PrepareOptions { force_n: (self.force_n > 0.0).then_some(self.force_n), ..Default::default() };
-        let report = prepare(&mut model, &path, &burr, &options)?;
+        let report = prepare_until(&mut model, &path, &burr, &options, go_on)?;
         let tissues = TissueVolumes::of(&model, &before, |name| report.removed_mm3.get(name).copied().unwrap_or(0.0));
         Ok(Prepared { model, tissues, report })
     }

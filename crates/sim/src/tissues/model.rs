@@ -151,6 +151,28 @@ impl TissueModel {
         Ok(())
     }
 
+    /// Level sets at `voxel_mm` rebuilt from closed tissue surfaces named by tissue (what a
+    /// ParaView pipeline hands on: the reader's, Tissues From Scan's or a preparation's blocks),
+    /// with the properties of `table`, in the surfaces' order. Surfaces without triangles are skipped; a name that is
+    /// not a tissue is an error naming the block. Conversion is OpenVDB's `meshToLevelSet`: the
+    /// surface moves by well under a voxel, so volumes agree to the mesher's accuracy.
+    pub fn from_surfaces(source: &str, surfaces: &[(String, dentsim_vdb::TriMesh)], voxel_mm: f64, table: &TissueTable) -> Result<Self> {
+        crate::tissues::capsule::check_voxel_mm("voxel size", voxel_mm)?;
+        let mut model = TissueModel::new(source, None);
+        for (name, mesh) in surfaces.iter().filter(|(_, m)| !m.triangles.is_empty()) {
+            let Some(props) = table.get(name) else {
+                let known: Vec<_> = table.tissues.iter().map(|t| t.name.as_str()).collect();
+                return Err(invalid(format!("{source} block '{name}'"), format!("is not a tissue (known: {})", known.join(", "))));
+            };
+            let grid = level_set_of_shells(mesh, voxel_mm).map_err(|e| invalid(format!("{source} block '{name}'"), e.to_string()))?;
+            model.push(props.clone(), grid)?;
+        }
+        if model.tissues.is_empty() {
+            return Err(invalid(source, "holds no tissue surfaces"));
+        }
+        Ok(model)
+    }
+
     /// Reads a .vdb whose level-set grids are named by tissue. Properties stored with a grid win;
     /// missing ones (files from other tools) come from `table`.
     pub fn load(path: &Path, table: &TissueTable) -> Result<Self> {
@@ -219,4 +241,53 @@ impl TissueModel {
         model.tissues.sort_by_key(|t| t.props.label);
         Ok(model)
     }
+}
+
+/// The level set of a closed surface that may hold nested shells (enamel's outer surface and the
+/// inward-wound surface around the dentin it encloses): `meshToLevelSet` fills everything not
+/// reachable from outside, so each connected shell is converted alone, outward-wound ones
+/// united and inward-wound ones (negative enclosed volume) cut away.
+fn level_set_of_shells(mesh: &dentsim_vdb::TriMesh, voxel_mm: f64) -> Result<LevelSet> {
+    let n = mesh.points.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for t in &mesh.triangles {
+        let a = root(&mut parent, t[0] as usize);
+        for &v in &t[1..] {
+            let b = root(&mut parent, v as usize);
+            parent[b] = a;
+        }
+    }
+    let mut shells: std::collections::BTreeMap<usize, Vec<[u32; 3]>> = Default::default();
+    for t in &mesh.triangles {
+        shells.entry(root(&mut parent, t[0] as usize)).or_default().push(*t);
+    }
+    let mut outer: Option<LevelSet> = None;
+    let mut inner = Vec::new();
+    for (_, triangles) in shells {
+        let mut shell = dentsim_vdb::TriMesh { points: mesh.points.clone(), normals: Vec::new(), triangles };
+        let inward = shell.volume() < 0.0;
+        if inward {
+            shell.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        }
+        let grid = LevelSet::from_mesh(&shell, voxel_mm, 3.0)?;
+        if inward {
+            inner.push(grid);
+        } else if let Some(o) = outer.as_mut() {
+            o.csg_union(&grid)?;
+        } else {
+            outer = Some(grid);
+        }
+    }
+    let mut grid = outer.ok_or_else(|| invalid("surface", "has no outward-wound shell"))?;
+    for hole in &inner {
+        grid.csg_difference(hole)?;
+    }
+    Ok(grid)
 }

@@ -1,0 +1,80 @@
+"""Progress and abort: Tissues From Scan and Dental Preparation report progress between 0 and 1
+while they work (ParaView's progress bar), and an abort during the cut stops it with an error
+saying so and empty outputs; the next run works again."""
+import os
+import re
+import subprocess
+
+from paraview import servermanager, simple
+from vtkmodules.vtkCommonCore import vtkCommand, vtkOutputWindow, vtkStringOutputWindow
+
+from dentsim_testing import check, parse_args
+
+args = parse_args()
+simple.LoadPlugin(args.plugin, ns=globals())
+
+scan_path = os.path.join(args.temp, "progress_scan.mha")
+made = subprocess.run([args.dentsim, "phantom", "--format", "mha", "--out", scan_path],
+                      check=True, capture_output=True, text=True).stdout
+seed = [float(v) for v in re.search(r"near ([-\d.]+),([-\d.]+),([-\d.]+) mm", made).groups()]
+csv = os.path.join(args.temp, "progress_box.csv")
+with open(csv, "w") as f:  # a class I box raster 2 mm into tooth 36's occlusal table
+    f.write("t,x,y,z,qw,qx,qy,qz,cut\n0,22,16.5,-26.6,1,0,0,0,0\n")
+    rows = [(22 + 0.1 * i if k % 2 == 0 else 26 - 0.1 * i, 16.5 + 0.5 * k) for k in range(7) for i in range(41)]
+    f.writelines("%.3f,%.2f,%.2f,-29.6,1,0,0,0,1\n" % (0.005 * (j + 1), x, y) for j, (x, y) in enumerate(rows))
+
+
+def watch(proxy, abort_at=None):
+    """Progress values the algorithm reports during its next update; aborts past `abort_at`."""
+    algorithm = proxy.GetClientSideObject()
+    seen = []
+
+    def on_progress(obj, event):
+        seen.append(obj.GetProgress())
+        if abort_at is not None and obj.GetProgress() > abort_at:
+            obj.SetAbortExecute(1)
+    tag = algorithm.AddObserver(vtkCommand.ProgressEvent, on_progress)
+    return seen, lambda: algorithm.RemoveObserver(tag)
+
+
+scan = simple.OpenDataFile(scan_path)
+tooth = DentalTissuesFromScan(Input=scan, VoxelSizemm=0.08, UseSeedPoint=1, SeedPointmm=seed)
+seen, stop = watch(tooth)
+tooth.UpdatePipeline()
+stop()
+middle = [p for p in seen if 0.0 < p < 1.0]
+print("Tissues From Scan progress:", [round(p, 2) for p in seen[:12]], "...", len(seen), "events")
+check(len(set(middle)) >= 3, "segmentation reports progress along the way: %s" % seen)
+check(seen == sorted(seen) and seen[-1] == 1.0, "progress only grows, to 1: %s" % seen)
+
+prep = DentalPreparation(Tissues=tooth, TissueVoxelSizemm=0.08, ToolPathFileCSV=csv, Burr="cylinder_flat:1.0:4")
+seen, stop = watch(prep)
+prep.UpdatePipeline()
+stop()
+middle = [p for p in seen if 0.0 < p < 1.0]
+print("Dental Preparation progress:", len(seen), "events,", len(set(middle)), "between 0 and 1")
+check(len(set(middle)) >= 3, "the cut reports progress along the way: %s" % seen)
+table = servermanager.Fetch(prep, idx=1)
+full = {table.GetValue(r, 0).ToString(): table.GetValue(r, 1).ToDouble() for r in range(table.GetNumberOfRows())}
+check(full["enamel"] > 1.0, "the box cut enamel: %s" % full)
+
+original_window = vtkOutputWindow.GetInstance()
+messages = vtkStringOutputWindow()
+vtkOutputWindow.SetInstance(messages)
+prep.Burr = "cylinder_flat:1.0:3.9"  # a change, so it runs again
+seen, stop = watch(prep, abort_at=0.2)
+prep.UpdatePipeline()
+stop()
+vtkOutputWindow.SetInstance(original_window)
+text = messages.GetOutput()
+check("stopped on request" in text, "the abort is reported: %r" % text)
+partial = [p for p in seen if p < 1.0]
+check(partial and partial[-1] < 0.9, "it stopped well before the end of the path: %s" % seen)
+check(servermanager.Fetch(prep).GetNumberOfBlocks() == 0 and servermanager.Fetch(prep, idx=1).GetNumberOfRows() == 0,
+      "an aborted run leaves empty outputs")
+prep.Burr = "cylinder_flat:1.0:4"
+prep.UpdatePipeline()
+table = servermanager.Fetch(prep, idx=1)
+again = {table.GetValue(r, 0).ToString(): table.GetValue(r, 1).ToDouble() for r in range(table.GetNumberOfRows())}
+check(again == full, "runs again after the abort: %s vs %s" % (again, full))
+print("PASSED test_progress_abort")
