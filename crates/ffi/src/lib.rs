@@ -244,6 +244,15 @@ mod bridge {
         fn tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Vec<TissueSurface>>;
         fn version() -> String;
         fn assess_preparation(params: &AssessmentParams) -> Result<AssessmentResult>;
+        /// As `assess_preparation`, with each model taken from tissue surfaces upstream in the
+        /// pipeline (rebuilt as level sets at `voxel_mm`) where given, else from its file.
+        fn assess_preparation_from(
+            params: &AssessmentParams,
+            prepared: &[InputSurface],
+            original: &[InputSurface],
+            reference: &[InputSurface],
+            voxel_mm: f64,
+        ) -> Result<AssessmentResult>;
     }
 }
 
@@ -302,18 +311,36 @@ pub fn read_tissues(path: &str) -> Result<Vec<TissueSurface>, String> {
 
 /// Grades a preparation against its original and an optional reference (see `dentsim assess`).
 pub fn assess_preparation(params: &AssessmentParams) -> Result<AssessmentResult, String> {
+    assess_preparation_from(params, &[], &[], &[], 0.0)
+}
+
+pub fn assess_preparation_from(
+    params: &AssessmentParams,
+    prepared: &[InputSurface],
+    original: &[InputSurface],
+    reference: &[InputSurface],
+    voxel_mm: f64,
+) -> Result<AssessmentResult, String> {
     use dentsim_sim::assess::report::tissues_file;
     use dentsim_sim::assess::{assess_as, Kind};
     guarded("assess preparation", || {
-        let load = |what: &str, p: &str| {
+        // The input when connected, else the file: each error names the property.
+        let load = |what: &str, input: &[InputSurface], p: &str| {
+            if !input.is_empty() {
+                return model_from_inputs(what, input, voxel_mm);
+            }
             if p.trim().is_empty() {
-                return Err(format!("{what}: no file given"));
+                return Err(format!("{what}: no input connected and no file given"));
             }
             dentsim_sim::tissues::model::TissueModel::load(&tissues_file(std::path::Path::new(p)), &TissueTable::default()).map_err(|e| format!("{what}: {e}"))
         };
-        let prepared = load("Prepared Tissues", &params.prepared_path)?;
-        let original = load("Original Tissues", &params.original_path)?;
-        let reference = if params.reference_path.trim().is_empty() { None } else { Some(load("Reference Preparation", &params.reference_path)?) };
+        let prepared = load("Prepared Tissues", prepared, &params.prepared_path)?;
+        let original = load("Original Tissues", original, &params.original_path)?;
+        let reference = if reference.is_empty() && params.reference_path.trim().is_empty() {
+            None
+        } else {
+            Some(load("Reference Preparation", reference, &params.reference_path)?)
+        };
         let kind = match (params.crown, params.use_axis) {
             (false, _) => Kind::Cavity,
             (true, false) => Kind::Crown { axis: None },
@@ -414,19 +441,20 @@ fn prepare_owned(
 }
 
 /// A model rebuilt from the pipeline's tissue surfaces (the "Tissues" input).
-fn model_from_inputs(tissues: &[InputSurface], voxel_mm: f64) -> Result<dentsim_sim::tissues::model::TissueModel, String> {
+/// Tissue surfaces from the pipeline as level sets at `voxel_mm`; errors name the input (`what`).
+fn model_from_inputs(what: &str, tissues: &[InputSurface], voxel_mm: f64) -> Result<dentsim_sim::tissues::model::TissueModel, String> {
     let surfaces: Vec<(String, TriMesh)> = tissues
         .iter()
         .map(|s| {
             let points = s.points.chunks_exact(3).map(|p| glam::Vec3::new(p[0], p[1], p[2])).collect::<Vec<_>>();
             if s.points.len() % 3 != 0 || s.triangles.len() % 3 != 0 || s.triangles.iter().any(|&i| i as usize >= points.len()) {
-                return Err(format!("Tissues: block '{}' is not a triangle surface", s.name));
+                return Err(format!("{what}: block '{}' is not a triangle surface", s.name));
             }
             let triangles = s.triangles.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
             Ok((s.name.clone(), TriMesh { points, normals: Vec::new(), triangles }))
         })
         .collect::<Result<_, _>>()?;
-    dentsim_sim::tissues::model::TissueModel::from_surfaces("Tissues", &surfaces, voxel_mm, &TissueTable::default()).map_err(|e| e.to_string())
+    dentsim_sim::tissues::model::TissueModel::from_surfaces(what, &surfaces, voxel_mm, &TissueTable::default()).map_err(|e| e.to_string())
 }
 
 /// Work on its own thread: the plugin polls `progress`/`finished`, may `abort`, then `wait`s.
@@ -525,7 +553,7 @@ pub fn start_preparation(
     let path = OwnedPath { points: points.to_vec(), orientation: orientation.to_vec(), time: time.to_vec(), rpm: rpm.to_vec(), cut: cut.to_vec() };
     let tissues: Vec<InputSurface> = tissues.iter().map(|s| InputSurface { name: s.name.clone(), points: s.points.clone(), triangles: s.triangles.clone() }).collect();
     Job::spawn("dental preparation", move |go_on| {
-        let model = if tissues.is_empty() { None } else { Some(model_from_inputs(&tissues, tissue_voxel_mm)?) };
+        let model = if tissues.is_empty() { None } else { Some(model_from_inputs("Tissues", &tissues, tissue_voxel_mm)?) };
         prepare_owned(&params, model, &path, go_on)
     })
 }

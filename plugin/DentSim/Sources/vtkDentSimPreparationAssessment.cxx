@@ -5,6 +5,7 @@
 #include <vtkFloatArray.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
+#include <vtkMultiBlockDataSet.h>
 #include <vtkNew.h>
 #include <vtkObjectFactory.h>
 #include <vtkPointData.h>
@@ -19,8 +20,16 @@
 vtkStandardNewMacro(vtkDentSimPreparationAssessment);
 
 vtkDentSimPreparationAssessment::vtkDentSimPreparationAssessment() {
-  this->SetNumberOfInputPorts(0);
+  // 0: unused, so that ParaView never binds the active source to it; 1: prepared, 2: original,
+  // 3: reference (each optional, over its file).
+  this->SetNumberOfInputPorts(4);
   this->SetNumberOfOutputPorts(2);
+}
+
+int vtkDentSimPreparationAssessment::FillInputPortInformation(int port, vtkInformation* info) {
+  info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), port == 0 ? "vtkDataObject" : "vtkMultiBlockDataSet");
+  info->Set(vtkAlgorithm::INPUT_IS_OPTIONAL(), 1);
+  return 1;
 }
 
 vtkDentSimPreparationAssessment::~vtkDentSimPreparationAssessment() {
@@ -35,7 +44,7 @@ int vtkDentSimPreparationAssessment::FillOutputPortInformation(int port, vtkInfo
   return 1;
 }
 
-int vtkDentSimPreparationAssessment::RequestData(vtkInformation*, vtkInformationVector**,
+int vtkDentSimPreparationAssessment::RequestData(vtkInformation*, vtkInformationVector** inputVector,
                                                  vtkInformationVector* outputVector) {
   vtkPolyData::GetData(outputVector, 0)->Initialize();
   vtkTable::GetData(outputVector, 1)->Initialize();
@@ -44,8 +53,19 @@ int vtkDentSimPreparationAssessment::RequestData(vtkInformation*, vtkInformation
   dentsim::ffi::AssessmentParams params{text(this->PreparedFile), text(this->OriginalFile),
                                         text(this->ReferenceFile), this->Kind == 1, this->UseAxis,
                                         {this->Axis[0], this->Axis[1], this->Axis[2]}};
+  // The tissues on a connected input, as the other DentSim sources hand them on.
+  auto surfaces = [&](int port) {
+    std::vector<dentsim::ffi::InputSurface> none;
+    if (this->GetNumberOfInputConnections(port) == 0) return none;
+    auto* blocks = vtkMultiBlockDataSet::GetData(inputVector[port], 0);
+    return blocks ? dentsim::InputSurfaces(blocks) : none;
+  };
+  const auto prepared = surfaces(1), original = surfaces(2), reference = surfaces(3);
+  const bool withReference = !reference.empty() || (this->ReferenceFile && *this->ReferenceFile);
   try {
-    const dentsim::ffi::AssessmentResult result = dentsim::ffi::assess_preparation(params);
+    const dentsim::ffi::AssessmentResult result = dentsim::ffi::assess_preparation_from(
+        params, {prepared.data(), prepared.size()}, {original.data(), original.size()},
+        {reference.data(), reference.size()}, this->TissueVoxelSize);
     vtkPolyData* surface = vtkPolyData::GetData(outputVector, 0);
     vtkNew<vtkPoints> points;
     points->SetDataTypeToFloat();
@@ -70,8 +90,7 @@ int vtkDentSimPreparationAssessment::RequestData(vtkInformation*, vtkInformation
     };
     pointArray("DeviationMm", result.deviation_mm);
     pointArray("CutDepthMm", result.cut_depth_mm);
-    surface->GetPointData()->SetActiveScalars(
-        this->ReferenceFile && *this->ReferenceFile ? "DeviationMm" : "CutDepthMm");
+    surface->GetPointData()->SetActiveScalars(withReference ? "DeviationMm" : "CutDepthMm");
     vtkNew<vtkStringArray> json;
     json->SetName("AssessmentJSON");
     json->InsertNextValue(std::string(result.json).c_str());
