@@ -23,7 +23,8 @@ pub struct Args {
     /// Tissue table overrides (TOML).
     #[arg(long)]
     tissues: Option<PathBuf>,
-    /// Grey values overriding the automatic calibration, e.g. soft_tissue=1150,dentin=2580,enamel=3350.
+    /// Grey values overriding the automatic calibration, e.g. soft_tissue=1150,dentin=2580,enamel=3350
+    /// (needed where the scan's layering does not tell enamel from dentin: the error says so).
     #[arg(long, value_delimiter = ',')]
     thresholds: Vec<String>,
     #[command(flatten)]
@@ -58,7 +59,13 @@ pub fn run(args: &Args) -> Result<()> {
     let report_path = dentsim_sim::tissues::from_scan::write_segmentation(&mut model, &report, &args.out)?;
     bar.finish_and_clear();
     println!("{}", report.fdi_note);
-    println!("calibration: {} (grey = {:.3} HU + {:.1})", report.calibration.method, report.calibration.hu_scale, report.calibration.hu_offset);
+    println!(
+        "calibration: {} (grey = {:.3} HU + {:.1}), confidence {:.2}",
+        report.calibration.method, report.calibration.hu_scale, report.calibration.hu_offset, report.calibration.confidence
+    );
+    for line in &report.calibration.evidence {
+        println!("  {line}");
+    }
     for t in &report.tissues {
         println!("{:<8} {:>9.2} mm³", t.name, t.volume_mm3);
     }
