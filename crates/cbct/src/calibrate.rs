@@ -641,3 +641,21 @@ fn otsu(h: &[f64], lo: f64, bw: f64) -> Option<Calibration> {
     let (a, b) = fit(&pts)?;
     Some(Calibration::build("otsu", &measured, a, b))
 }
+
+/// Grey values per tissue from "TISSUE=GREY,..." (what `--thresholds` and the plugin's
+/// Thresholds take), for [`Calibration::manual`]; errors name the item.
+pub fn parse_thresholds(text: &str) -> Result<Vec<(Label, f64)>> {
+    text.split(',')
+        .map(str::trim)
+        .filter(|item| !item.is_empty())
+        .map(|item| {
+            let (name, value) = item.split_once('=').ok_or_else(|| Error::invalid("thresholds", format!("'{item}' is not TISSUE=GREY")))?;
+            let label = Label::from_name(name.trim()).ok_or_else(|| Error::invalid("thresholds", format!("unknown tissue '{}'", name.trim())))?;
+            let grey: f64 = value.trim().parse().map_err(|_| Error::invalid("thresholds", format!("'{}' for {} is not a number", value.trim(), name.trim())))?;
+            if !grey.is_finite() {
+                return Err(Error::invalid("thresholds", format!("{}={} is not finite", name.trim(), value.trim())));
+            }
+            Ok((label, grey))
+        })
+        .collect()
+}

@@ -165,6 +165,13 @@ mod bridge {
         fn phantom_stroke(params: &StrokeParams) -> Result<Vec<TissueSurface>>;
         fn read_tissues(path: &str) -> Result<Vec<TissueSurface>>;
         fn tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Vec<TissueSurface>>;
+        fn tissues_from_scan_source(
+            geometry: &ImageGeometry,
+            values: &[f32],
+            params: &TissuesFromScanParams,
+            scan_path: &str,
+            thresholds: &str,
+        ) -> Result<Vec<TissueSurface>>;
         fn version() -> String;
         fn assess_preparation(params: &AssessmentParams) -> Result<AssessmentResult>;
     }
@@ -263,7 +270,28 @@ pub fn assess_preparation(params: &AssessmentParams) -> Result<AssessmentResult,
 
 /// One tooth's tissue surfaces from a scan already in memory (a ParaView reader's output).
 pub fn tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Vec<TissueSurface>, String> {
+    tissues_from_scan_source(geometry, values, params, "", "")
+}
+
+/// As [`tissues_from_scan`], but from the scan's file through dentsim's reader when `scan_path`
+/// is given (ParaView's readers drop what the frame needs: DICOM's sign, origin and axes, the
+/// NIfTI/MetaImage orientation), and with grey values overriding the calibration when
+/// `thresholds` is given ("TISSUE=GREY,...").
+pub fn tissues_from_scan_source(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams, scan_path: &str, thresholds: &str) -> Result<Vec<TissueSurface>, String> {
     guarded("tissues from scan", || {
+        let thresholds = if thresholds.trim().is_empty() { None } else { Some(dentsim_cbct::calibrate::parse_thresholds(thresholds).map_err(|e| e.to_string())?) };
+        if !scan_path.is_empty() {
+            let scan = dentsim_cbct::read(scan_path, &dentsim_cbct::ReadOptions::default()).map_err(|e| e.to_string())?;
+            let request = dentsim_sim::tissues::from_scan::TissuesFromScan {
+                voxel_size_mm: params.voxel_size_mm,
+                fdi: params.fdi,
+                seed_mm: params.use_seed.then_some(params.seed_mm),
+                thresholds,
+                ..Default::default()
+            };
+            let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
+            return unchanged_surfaces(&model);
+        }
         let d = geometry.direction;
         let direction = [[d[0], d[3], d[6]], [d[1], d[4], d[7]], [d[2], d[5], d[8]]];
         let source = dentsim_cbct::SourceInfo { format: "vtkImageData".into(), path: "ParaView input".into(), ..Default::default() };
@@ -280,6 +308,7 @@ pub fn tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &Tiss
             voxel_size_mm: params.voxel_size_mm,
             fdi: params.fdi,
             seed_mm: params.use_seed.then_some(params.seed_mm),
+            thresholds,
             ..Default::default()
         };
         let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
