@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use dentsim_cbct::phantom::gaussian_blur;
-use dentsim_cbct::{calibrate, crop, crop_labels, enclosed_volume, segment, tooth_box, Calibration, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
+use dentsim_cbct::{calibrate, crop, crop_labels, enclosed_volume, find_teeth, segment, tooth_box, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
 
 use dentsim_vdb::{DenseVolume, LevelSet};
 use serde::Serialize;
@@ -68,6 +68,10 @@ pub struct ScanReport {
     /// Dentin voxels outside the main dentin body, given to the enamel.
     pub dentin_specks_relabelled: usize,
     pub calibration: Calibration,
+    /// With every tooth segmented ([`TissuesFromScan::run_all`]): this tooth as found in the
+    /// scan, and its place in the list (1 = largest).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub found: Option<(usize, FoundTooth)>,
     pub tissues: Vec<SegmentedTissue>,
     pub seconds: Timings,
 }
@@ -79,6 +83,10 @@ pub struct Timings {
     pub crop: f64,
     pub level_sets: f64,
 }
+
+/// What the number of a tooth means when every tooth is segmented.
+pub const ALL_TEETH_NOTE: &str = "every tooth in the scan, each its own object, numbered by size (1 = largest); \
+                                  the teeth are not identified, so no FDI number is given (fdi 0)";
 
 /// What the FDI number of a segmented tooth means (`{fdi}` is replaced by the number).
 pub const FDI_NOTE: &str = "tooth {fdi} is the user's label (--tooth) for the tooth nearest the seed point; \
@@ -108,17 +116,54 @@ impl TissuesFromScan {
     /// Runs every step; `progress(step, fraction)` follows the work.
     pub fn run(&self, scan: &Volume, table: &TissueTable, progress: &mut dyn FnMut(&str, f64)) -> Result<(TissueModel, ScanReport)> {
         self.validate()?;
-        let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
         let mut seconds = Timings::default();
 
         progress("calibrating grey values", 0.0);
         let clock = Instant::now();
-        let calibration = match &self.thresholds {
-            Some(values) => Calibration::manual(values).map_err(cbct)?,
-            None => calibrate(scan).map_err(cbct)?,
-        };
+        let calibration = self.calibrate(scan)?;
         seconds.calibrate = clock.elapsed().as_secs_f64();
+        self.run_calibrated(scan, table, calibration, seconds, progress)
+    }
 
+    fn calibrate(&self, scan: &Volume) -> Result<Calibration> {
+        let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
+        match &self.thresholds {
+            Some(values) => Calibration::manual(values).map_err(cbct),
+            None => calibrate(scan).map_err(cbct),
+        }
+    }
+
+    /// Every tooth in the scan, each its own object ([`find_teeth`]), calibrated once; the
+    /// point and FDI number are not used (the teeth are numbered by size, not identified).
+    pub fn run_all(&self, scan: &Volume, table: &TissueTable, progress: &mut dyn FnMut(&str, f64)) -> Result<Vec<(TissueModel, ScanReport)>> {
+        self.validate()?;
+        let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
+        progress("calibrating grey values", 0.0);
+        let clock = Instant::now();
+        let calibration = self.calibrate(scan)?;
+        let calibrate_s = clock.elapsed().as_secs_f64();
+        progress("finding the teeth", 0.05);
+        let teeth = find_teeth(scan, &calibration).map_err(cbct)?;
+        if teeth.is_empty() {
+            return Err(invalid(format!("scan {}", scan.source.path), "no tooth (hard tissue with enamel) found"));
+        }
+        let count = teeth.len() as f64;
+        let mut out = Vec::with_capacity(teeth.len());
+        for (i, tooth) in teeth.into_iter().enumerate() {
+            let one = TissuesFromScan { seed_mm: Some(tooth.seed), bounds_mm: Some((tooth.min, tooth.max)), ..self.clone() };
+            let seconds = Timings { calibrate: calibrate_s / count, ..Timings::default() };
+            let (mut model, mut report) = one.run_calibrated(scan, table, calibration.clone(), seconds, &mut |step, f| progress(&format!("tooth {}: {step}", i + 1), (i as f64 + f) / count))?;
+            model.fdi_tooth = None;
+            report.fdi = 0;
+            report.fdi_note = ALL_TEETH_NOTE.into();
+            report.found = Some((i + 1, tooth));
+            out.push((model, report));
+        }
+        Ok(out)
+    }
+
+    fn run_calibrated(&self, scan: &Volume, table: &TissueTable, calibration: Calibration, mut seconds: Timings, progress: &mut dyn FnMut(&str, f64)) -> Result<(TissueModel, ScanReport)> {
+        let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
         progress("segmenting", 0.1);
         let clock = Instant::now();
         let seed = self.seed_mm.unwrap_or_else(|| centre_of(scan));
@@ -178,6 +223,7 @@ impl TissuesFromScan {
             crop_max: region.max,
             dentin_specks_relabelled: specks,
             calibration,
+            found: None,
             tissues,
             seconds,
         };
