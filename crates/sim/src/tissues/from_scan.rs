@@ -246,6 +246,23 @@ pub fn write_segmentation(model: &mut TissueModel, report: &ScanReport, out: &st
     Ok(folder.join(json_name))
 }
 
+/// Writes every tooth of [`TissuesFromScan::run_all`] beside `out`: `<stem>_tooth<N>.vdb` with its
+/// report `<stem>_tooth<N>.vdb.json`, all or none; returns the .vdb paths.
+pub fn write_all_segmentations(teeth: &mut [(TissueModel, ScanReport)], out: &std::path::Path) -> Result<Vec<std::path::PathBuf>> {
+    let stem = out.file_stem().ok_or_else(|| invalid("output", format!("{} is not a file path", out.display())))?.to_string_lossy().into_owned();
+    let folder = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+    let names: Vec<String> = (1..=teeth.len()).map(|n| format!("{stem}_tooth{n}.vdb")).collect();
+    let jsons = teeth.iter().map(|(_, r)| serde_json::to_vec_pretty(r).map_err(|e| invalid("scan report", e.to_string()))).collect::<Result<Vec<_>>>()?;
+    crate::tissues::export::all_or_nothing(folder, |staged| {
+        for (((model, _), name), json) in teeth.iter_mut().zip(&names).zip(&jsons) {
+            model.save(&staged.join(name))?;
+            dentsim_atomic::write(&staged.join(format!("{name}.json")), |w| std::io::Write::write_all(w, json))?;
+        }
+        Ok(())
+    })?;
+    Ok(names.iter().map(|n| folder.join(n)).collect())
+}
+
 /// Builds the tooth's tissues from nested unions so that each grid encloses only its own material
 /// and neighbours share their interface exactly (DESIGN.md "Tissues"):
 /// enamel = tooth ∖ core, dentin = core ∖ pulp ∖ caries, with core = dentin ∪ pulp ∪ caries.
