@@ -1,7 +1,8 @@
 """One scan opened with each of ParaView's own readers (DICOM, NIfTI, MetaImage) gives the tissues
 `dentsim segment` gives from the same file, in the same (patient LPS) frame. The DICOM series is
 written by pydicom as scanners store it (signed 16-bit, a series position, LPS axes), the NIfTI by
-nibabel, both from the phantom; the MetaImage by dentsim. Also: the Grey Values array selector."""
+nibabel, both from the phantom; the MetaImage by dentsim. Also: the Grey Values array selector,
+and All Teeth (one block per tooth)."""
 import json
 import os
 import re
@@ -134,4 +135,18 @@ check(source == "input array 'Scaled' in the image's frame", "the chosen array w
 same("array Scaled", (volumes, bounds), cli(mha, "MetaImage"))
 volumes, _, _ = paraview(ramp, GreyValues=["POINTS", "Ramp"])
 check(volumes == {}, "a ramp gives no tissues: %s" % volumes)
+# All Teeth: one block per tooth, each holding its tissues; the largest is the molar at the seed.
+tissues = DentalTissuesFromScan(Input=simple.OpenDataFile(mha))
+tissues.AllTeeth = 1
+tissues.UpdatePipeline()
+data = servermanager.Fetch(tissues)
+names = [data.GetMetaData(i).Get(data.NAME()) for i in range(data.GetNumberOfBlocks())]
+print("All Teeth blocks: %s" % names)
+check(len(names) == 3 and names[0] == "tooth 1" and all(n.startswith("tooth ") for n in names),
+      "three teeth, one block each: %s" % names)
+first = data.GetBlock(0)
+volumes = {first.GetMetaData(i).Get(first.NAME()): first.GetBlock(i).GetFieldData().GetArray("VolumeBefore").GetValue(0)
+           for i in range(first.GetNumberOfBlocks())}
+bounds = {first.GetMetaData(i).Get(first.NAME()): first.GetBlock(i).GetBounds() for i in range(first.GetNumberOfBlocks())}
+same("All Teeth, tooth 1", (volumes, bounds), cli(mha, "MetaImage"))
 print("PASSED test_scan_readers")

@@ -36,6 +36,16 @@ mod bridge {
         triangles: Vec<u32>,
     }
 
+    /// One tooth of all those found in a scan, with its tissues.
+    struct ToothSurfaces {
+        /// 1 = largest; the teeth are numbered by size, not identified.
+        tooth: u32,
+        /// A point inside it, LPS mm.
+        seed_mm: [f64; 3],
+        cut_by_field_of_view: bool,
+        tissues: Vec<TissueSurface>,
+    }
+
     /// A scalar image as VTK holds it: world = origin + direction · (ijk ∘ spacing), with the
     /// direction matrix row-major (column c is index axis c), x fastest in the values.
     struct ImageGeometry {
@@ -172,12 +182,19 @@ mod bridge {
             scan_path: &str,
             thresholds: &str,
         ) -> Result<Vec<TissueSurface>>;
+        fn teeth_from_scan_source(
+            geometry: &ImageGeometry,
+            values: &[f32],
+            params: &TissuesFromScanParams,
+            scan_path: &str,
+            thresholds: &str,
+        ) -> Result<Vec<ToothSurfaces>>;
         fn version() -> String;
         fn assess_preparation(params: &AssessmentParams) -> Result<AssessmentResult>;
     }
 }
 
-pub use bridge::{AssessmentParams, AssessmentResult, AssessmentRow, ImageGeometry, PreparationParams, TissuesFromScanParams, SessionParams, SessionState, StrokeParams, TissueSurface};
+pub use bridge::{AssessmentParams, AssessmentResult, AssessmentRow, ImageGeometry, PreparationParams, TissuesFromScanParams, SessionParams, SessionState, StrokeParams, TissueSurface, ToothSurfaces};
 
 /// Runs `f`, turning a panic into an error so it never unwinds into C++.
 fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
@@ -314,6 +331,32 @@ pub fn tissues_from_scan_source(geometry: &ImageGeometry, values: &[f32], params
         let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
         unchanged_surfaces(&model)
     })
+}
+
+/// Every tooth in the scan, each its own object with its tissues (the scan as for
+/// [`tissues_from_scan_source`]; the seed point and FDI number are not used).
+pub fn teeth_from_scan_source(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams, scan_path: &str, thresholds: &str) -> Result<Vec<ToothSurfaces>, String> {
+    guarded("teeth from scan", || {
+        let thresholds = if thresholds.trim().is_empty() { None } else { Some(dentsim_cbct::calibrate::parse_thresholds(thresholds).map_err(|e| e.to_string())?) };
+        let scan = if scan_path.is_empty() { image_volume(geometry, values)? } else { dentsim_cbct::read(scan_path, &dentsim_cbct::ReadOptions::default()).map_err(|e| e.to_string())? };
+        let request = dentsim_sim::tissues::from_scan::TissuesFromScan { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, thresholds, ..Default::default() };
+        let teeth = request.run_all(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
+        teeth
+            .iter()
+            .map(|(model, report)| {
+                let (n, found) = report.found.clone().ok_or("a tooth without its place")?;
+                Ok(ToothSurfaces { tooth: n as u32, seed_mm: found.seed, cut_by_field_of_view: found.cut_by_field_of_view, tissues: unchanged_surfaces(model)? })
+            })
+            .collect()
+    })
+}
+
+/// The image ParaView passed, as a scan volume.
+fn image_volume(geometry: &ImageGeometry, values: &[f32]) -> Result<dentsim_cbct::Volume, String> {
+    let d = geometry.direction;
+    let direction = [[d[0], d[3], d[6]], [d[1], d[4], d[7]], [d[2], d[5], d[8]]];
+    let source = dentsim_cbct::SourceInfo { format: "vtkImageData".into(), path: "ParaView input".into(), ..Default::default() };
+    dentsim_cbct::Volume::new(geometry.dims.map(|n| n as usize), geometry.spacing, geometry.origin, direction, values.to_vec(), source).map_err(|e| format!("input image: {e}"))
 }
 
 /// A tool path cut into the tissues (or the phantom); see `sim::prepare::PreparationRequest`.

@@ -112,12 +112,29 @@ int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector
   params.use_seed = this->UseSeedPoint;
   for (int i = 0; i < 3; ++i) params.seed_mm[i] = this->SeedPoint[i];
   vtkMultiBlockDataSet* output = vtkMultiBlockDataSet::GetData(outputVector, 0);
+  const rust::Slice<const float> grey(values.data(), values.size());
+  const char* thresholds = this->Thresholds ? this->Thresholds : "";
+  std::vector<vtkMultiBlockDataSet*> tissueSets;  // the blocks holding tissues
   try {
-    dentsim::FillTissueBlocks(
-        dentsim::ffi::tissues_from_scan_source(
-            geometry, rust::Slice<const float>(values.data(), values.size()), params, scanFile,
-            this->Thresholds ? this->Thresholds : ""),
-        output);
+    if (this->AllTeeth) {
+      const auto teeth = dentsim::ffi::teeth_from_scan_source(geometry, grey, params, scanFile, thresholds);
+      output->SetNumberOfBlocks(static_cast<unsigned int>(teeth.size()));
+      unsigned int b = 0;
+      for (const auto& tooth : teeth) {
+        vtkNew<vtkMultiBlockDataSet> block;
+        dentsim::FillTissueBlocks(tooth.tissues, block);
+        output->SetBlock(b, block);
+        std::string name = "tooth " + std::to_string(tooth.tooth);
+        if (tooth.cut_by_field_of_view) name += " (cut by the field of view)";
+        output->GetMetaData(b)->Set(vtkCompositeDataSet::NAME(), name.c_str());
+        tissueSets.push_back(block);
+        ++b;
+      }
+    } else {
+      dentsim::FillTissueBlocks(dentsim::ffi::tissues_from_scan_source(geometry, grey, params, scanFile, thresholds),
+                                output);
+      tissueSets.push_back(output);
+    }
   } catch (const rust::Error& e) {
     vtkErrorMacro(<< "DentSim: " << e.what());
     return 0;
@@ -130,13 +147,15 @@ int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector
           : "read through dentsim's reader from " + scanFile +
                 " (patient LPS frame, as dentsim segment; the reader's image lacks its orientation, "
                 "origin or sign)";
-  for (unsigned int b = 0; b < output->GetNumberOfBlocks(); ++b) {
-    vtkDataObject* block = output->GetBlock(b);
-    if (!block) continue;
-    vtkNew<vtkStringArray> note;
-    note->SetName("ScanSource");
-    note->InsertNextValue(source);
-    block->GetFieldData()->AddArray(note);
+  for (vtkMultiBlockDataSet* set : tissueSets) {
+    for (unsigned int b = 0; b < set->GetNumberOfBlocks(); ++b) {
+      vtkDataObject* block = set->GetBlock(b);
+      if (!block) continue;
+      vtkNew<vtkStringArray> note;
+      note->SetName("ScanSource");
+      note->InsertNextValue(source);
+      block->GetFieldData()->AddArray(note);
+    }
   }
   return 1;
 }
@@ -149,5 +168,6 @@ void vtkDentSimTissuesFromScan::PrintSelf(ostream& os, vtkIndent indent) {
   os << indent << "SeedPoint: " << this->SeedPoint[0] << " " << this->SeedPoint[1] << " "
      << this->SeedPoint[2] << " mm\n";
   os << indent << "ReadScanFile: " << this->ReadScanFile << "\n";
+  os << indent << "AllTeeth: " << this->AllTeeth << "\n";
   os << indent << "Thresholds: " << (this->Thresholds ? this->Thresholds : "") << "\n";
 }

@@ -7,6 +7,8 @@
 // NIfTI and MetaImage orientation) that those readers drop: the tissues land where
 // `dentsim segment` puts them, and each block's ScanSource field says which was read. Otherwise
 // the grey values are the selected point array of the image, in the image's world frame.
+// With AllTeeth, every tooth in the scan is its own block ("tooth N", N by size), holding its
+// tissue blocks.
 #pragma once
 
 #include <vtkMultiBlockDataSetAlgorithm.h>
@@ -29,6 +31,8 @@ public:
   vtkGetVector3Macro(SeedPoint, double);
   vtkSetMacro(ReadScanFile, bool);
   vtkGetMacro(ReadScanFile, bool);
+  vtkSetMacro(AllTeeth, bool);
+  vtkGetMacro(AllTeeth, bool);
   vtkSetStringMacro(Thresholds);
   vtkGetStringMacro(Thresholds);
 
@@ -43,6 +47,7 @@ protected:
   bool UseSeedPoint = false;
   double SeedPoint[3] = {0.0, 0.0, 0.0};
   bool ReadScanFile = true;
+  bool AllTeeth = false;
   char* Thresholds = nullptr;
 
 private:
