@@ -7,6 +7,12 @@ mod family;
 
 fn main() {
     let quick = std::env::args().any(|a| a == "quick");
+    if std::env::args().any(|a| a == "floor") {
+        for case in dentsim_cbct::phantom::family(false) {
+            println!("{:70} analytic level set: {:?}", case.name, family::floor(&case, 0.05));
+        }
+        return;
+    }
     let (mut met, mut all) = (0, 0);
     for case in dentsim_cbct::phantom::family(!quick) {
         match family::run(&case, 0.05) {

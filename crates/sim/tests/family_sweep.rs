@@ -12,15 +12,15 @@ fn every_fast_case_gives_the_tooth_near_its_true_tissues() {
         family::print(&r);
         assert!(r.confidence >= dentsim_cbct::calibrate::MIN_CONFIDENCE);
         for t in &r.tissues {
-            // measured on these cases: enamel ≤ 7.8 %, dentin ≤ 4.6 %, pulp ≤ 29 % (a canine's
-            // pulp in water, 0.3 mm), surfaces ≤ 0.094 mm, normals ≤ 23.4° (the scan grid's
-            // terraces)
+            // measured on these cases: enamel ≤ 7.1 % (the tilted incisor in the jaw), dentin
+            // ≤ 4.4 %, pulp ≤ 23.5 % (a canine's pulp in water, 0.3 mm), surfaces ≤ 0.082 mm,
+            // normals ≤ 20.2° (before the surface was placed by grey: 23.4°, 0.094 mm)
             let volume = match t.label {
-                dentsim_cbct::Label::Enamel => 0.09,
-                dentsim_cbct::Label::Dentin => 0.06,
-                _ => 0.32,
+                dentsim_cbct::Label::Enamel => 0.08,
+                dentsim_cbct::Label::Dentin => 0.05,
+                _ => 0.26,
             };
-            if t.volume_error.abs() > volume || t.surface_mm > 0.11 || t.normal_deg > 26.0 {
+            if t.volume_error.abs() > volume || t.surface_mm > 0.09 || t.normal_deg > 22.0 {
                 failures.push(format!("{}: {} {:+.1}% {:.3} mm {:.1}°", r.name, t.label.name(), 100.0 * t.volume_error, t.surface_mm, t.normal_deg));
             }
         }

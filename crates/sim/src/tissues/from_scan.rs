@@ -269,6 +269,10 @@ pub fn write_all_segmentations(teeth: &mut [(TissueModel, ScanReport)], out: &st
 /// Building a shell directly would not do: OpenVDB's mesh-to-level-set decides inside by flooding
 /// from outside, so a cavity enclosed by a tissue (the pulp in the dentin) would count as inside.
 const UNION_BLUR_VOXELS: f64 = 0.35;
+/// The field placed by grey is smoothed by this much (voxels), and kept this far on each
+/// voxel's side of 0.5.
+const GREY_BLUR_VOXELS: f64 = 0.5;
+const GREY_SIDE: f32 = 0.02;
 /// Φ(0.5 / σ) for σ = 0.35: the blurred indicator half a voxel inside a flat boundary.
 const FLAT_INSIDE: f32 = 0.9234;
 
@@ -305,10 +309,101 @@ impl NestedBuilder<'_> {
         let mut field: Vec<f32> = self.labels.labels.iter().map(|l| f32::from(u8::from(codes.contains(l)))).collect();
         let inside: Vec<bool> = field.iter().map(|&v| v > 0.5).collect();
         gaussian_blur(&mut field, self.scan.dims, [UNION_BLUR_VOXELS; 3]);
-        for (v, inside) in field.iter_mut().zip(inside) {
-            *v = if inside { v.max(FLAT_INSIDE) } else { v.min(1.0 - FLAT_INSIDE) };
+        for (v, inside) in field.iter_mut().zip(&inside) {
+            *v = if *inside { v.max(FLAT_INSIDE) } else { v.min(1.0 - FLAT_INSIDE) };
+        }
+        self.place_by_grey(&mut field, &inside);
+        // The grey's noise would roughen the surface at the scan's voxel scale: smoothed once
+        // more, each voxel kept on its side.
+        gaussian_blur(&mut field, self.scan.dims, [GREY_BLUR_VOXELS; 3]);
+        for (v, inside) in field.iter_mut().zip(&inside) {
+            *v = if *inside { v.max(0.5 + GREY_SIDE) } else { v.min(0.5 - GREY_SIDE) };
         }
         self.level_set(&field, 0.5, true).map(Some)
+    }
+
+    /// Places the surface between two voxels where the scan's grey says, not midway: at a voxel on
+    /// the union's border whose neighbour across it is a hard tissue or the outside (enamel,
+    /// dentin, air, soft tissue, bone: not pulp, caries or metal, whose grey is no two-tissue
+    /// mix), the field is the voxel's fraction of the inside tissue, (grey − g_out) / (g_in −
+    /// g_out), with the two tissues' calibrated grey values (bone beside a root is its ligament's
+    /// soft tissue, as segmentation takes it). The midpoint contour the segmentation decided each
+    /// voxel by then runs through the voxels at sub-voxel positions, and the scan grid's terraces
+    /// go. The field stays on each voxel's side of 0.5, so no voxel changes side and thin walls
+    /// keep their topology.
+    fn place_by_grey(&self, field: &mut [f32], inside: &[bool]) {
+        use rayon::prelude::*;
+        let [nx, ny, nz] = self.scan.dims;
+        let labels = &self.labels.labels;
+        let values = &self.scan.values;
+        let cal = self.calibration;
+        let grey_of = |code: u8| -> Option<f64> {
+            match Label::from_u8(code)? {
+                Label::Enamel | Label::Dentin | Label::Air | Label::SoftTissue => Label::from_u8(code).map(|l| cal.peak(l)),
+                Label::BoneCancellous | Label::BoneCortical => Some(cal.peak(Label::SoftTissue)),
+                _ => None,
+            }
+        };
+        const SIDE: f32 = GREY_SIDE;
+        let updates: Vec<(usize, f32)> = (0..field.len())
+            .into_par_iter()
+            .filter_map(|n| {
+                let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
+                let neighbours = [
+                    (i > 0).then(|| n - 1),
+                    (i + 1 < nx).then(|| n + 1),
+                    (j > 0).then(|| n - nx),
+                    (j + 1 < ny).then(|| n + nx),
+                    (k > 0).then(|| n - nx * ny),
+                    (k + 1 < nz).then(|| n + nx * ny),
+                ];
+                let mut counts = [0u8; 16];
+                for m in neighbours.into_iter().flatten().filter(|&m| inside[m] != inside[n]) {
+                    counts[(labels[m] as usize).min(15)] += 1;
+                }
+                let partner = (0..16).max_by_key(|&c| counts[c]).filter(|&c| counts[c] > 0)? as u8;
+                // Outside the tooth, which tissue is there is read as segmentation reads it: the
+                // median grey of the outside voxels within 2 voxels, snapped to air or soft
+                // tissue (a class label there may be partial volume of the tooth's edge).
+                let outside_grey = |centre: usize| -> Option<f64> {
+                    let (ci, cj, ck) = ((centre % nx) as i64, ((centre / nx) % ny) as i64, (centre / (nx * ny)) as i64);
+                    let mut grey: Vec<f32> = Vec::with_capacity(125);
+                    for dk in -2i64..=2 {
+                        for dj in -2i64..=2 {
+                            for di in -2i64..=2 {
+                                let (x, y, z) = (ci + di, cj + dj, ck + dk);
+                                if x < 0 || y < 0 || z < 0 || x >= nx as i64 || y >= ny as i64 || z >= nz as i64 {
+                                    continue;
+                                }
+                                let m = x as usize + nx * (y as usize + ny * z as usize);
+                                if !inside[m] && labels[m] <= Label::BoneCortical as u8 {
+                                    grey.push(values[m]);
+                                }
+                            }
+                        }
+                    }
+                    if grey.is_empty() {
+                        return None;
+                    }
+                    let h = grey.len() / 2;
+                    let g = f64::from(*grey.select_nth_unstable_by(h, |a, b| a.total_cmp(b)).1);
+                    let (air, soft) = (cal.peak(Label::Air), cal.peak(Label::SoftTissue));
+                    Some(if (g - air).abs() < (g - soft).abs() { air } else { soft })
+                };
+                let outside = |code: u8| code <= Label::BoneCortical as u8;
+                let own = if outside(labels[n]) { outside_grey(n)? } else { grey_of(labels[n])? };
+                let other = if outside(partner) { outside_grey(n)? } else { grey_of(partner)? };
+                let (g_in, g_out) = if inside[n] { (own, other) } else { (other, own) };
+                if (g_in - g_out).abs() < 1e-6 {
+                    return None;
+                }
+                let f = ((f64::from(values[n]) - g_out) / (g_in - g_out)) as f32;
+                Some((n, if inside[n] { f.clamp(0.5 + SIDE, 1.0) } else { f.clamp(0.0, 0.5 - SIDE) }))
+            })
+            .collect();
+        for (n, f) in updates {
+            field[n] = f;
+        }
     }
 
     /// Moves `grid`'s surface along its normals until it encloses the tissue's partial-volume

@@ -82,3 +82,34 @@ pub fn print(r: &CaseResult) {
     }
     println!(" | {:.1} s", r.seconds);
 }
+
+/// The metric's floor: the same measures on the analytic tooth's own level set at `voxel_mm`.
+pub fn floor(case: &FamilyCase, voxel_mm: f64) -> Vec<(Label, f64, f64)> {
+    let phantom = Phantom::new(&case.spec);
+    let fdi = phantom.tooth();
+    let (lo, hi) = phantom.tooth_bounds(fdi).unwrap();
+    let (lo, hi) = (DVec3::from_array(lo) - 1.0, DVec3::from_array(hi) + 1.0);
+    [Label::Enamel, Label::Dentin, Label::Pulp]
+        .into_iter()
+        .map(|label| {
+            let sdf = |p: DVec3| phantom.tooth_sdf(fdi, label, p).unwrap_or(f64::INFINITY);
+            let grid = dentsim_vdb::LevelSet::from_sdf(voxel_mm, 3.0, lo, hi, sdf).unwrap();
+            let mesh = grid.to_mesh();
+            let (mut dist, mut angle, mut n) = (0.0, 0.0, 0usize);
+            for tri in mesh.triangles.iter().step_by((mesh.triangles.len() / 20000).max(1)) {
+                let [a, b, c] = tri.map(|i| mesh.points[i as usize].as_dvec3());
+                let normal = (b - a).cross(c - a);
+                let centre = (a + b + c) / 3.0;
+                let h = 1e-3;
+                let grad = DVec3::new(sdf(centre + DVec3::X * h) - sdf(centre - DVec3::X * h), sdf(centre + DVec3::Y * h) - sdf(centre - DVec3::Y * h), sdf(centre + DVec3::Z * h) - sdf(centre - DVec3::Z * h));
+                if normal.length() < 1e-12 || grad.length() < 1e-9 {
+                    continue;
+                }
+                dist += sdf(centre).abs();
+                angle += normal.normalize().dot(grad.normalize()).clamp(-1.0, 1.0).acos().to_degrees();
+                n += 1;
+            }
+            (label, dist / n.max(1) as f64, angle / n.max(1) as f64)
+        })
+        .collect()
+}
