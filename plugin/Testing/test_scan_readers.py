@@ -36,14 +36,20 @@ stored = numpy.round(grey - 1500.0).astype(numpy.int16)
 nibabel.save(nibabel.Nifti1Image(stored, affine), peer_nifti)
 
 # pydicom's series: the same signed values, one file per slice, positions in LPS.
-series = os.path.join(temp, "series")
-os.makedirs(series, exist_ok=True)
 lps = numpy.diag([-1.0, -1.0, 1.0]) @ affine[:3, :]
-spacing = [float(numpy.linalg.norm(lps[:, c])) for c in range(3)]
-row_dir = lps[:, 0] / spacing[0]
-col_dir = lps[:, 1] / spacing[1]
-study, series_uid = generate_uid(), generate_uid()
-for k in range(stored.shape[2]):
+
+
+def write_series(series, stored, lps):
+    os.makedirs(series, exist_ok=True)
+    spacing = [float(numpy.linalg.norm(lps[:, c])) for c in range(3)]
+    row_dir = lps[:, 0] / spacing[0]
+    col_dir = lps[:, 1] / spacing[1]
+    study, series_uid = generate_uid(), generate_uid()
+    for k in range(stored.shape[2]):
+        write_slice(series, stored, lps, spacing, row_dir, col_dir, study, series_uid, k)
+
+
+def write_slice(series, stored, lps, spacing, row_dir, col_dir, study, series_uid, k):
     meta = FileMetaDataset()
     meta.MediaStorageSOPClassUID = "1.2.840.10008.5.1.4.1.1.2"
     meta.MediaStorageSOPInstanceUID = generate_uid()
@@ -68,6 +74,17 @@ for k in range(stored.shape[2]):
     ds.PixelData = numpy.ascontiguousarray(stored[:, :, k].T).tobytes()
     ds.is_little_endian, ds.is_implicit_VR = True, False
     ds.save_as(path, write_like_original=False)
+
+
+series = os.path.join(temp, "series")
+write_series(series, stored, lps)
+# The same scan stored mirrored along the rows and columns (the index axes run the other way,
+# the series' position is the far corner): where a reader keeps the patient frame, the tooth
+# stays where it was.
+flipped = os.path.join(temp, "series_flipped")
+turned = numpy.ascontiguousarray(stored[::-1, ::-1, :])
+far = lps[:, 3] + lps[:, 0] * (stored.shape[0] - 1) + lps[:, 1] * (stored.shape[1] - 1)
+write_series(flipped, turned, numpy.column_stack([-lps[:, 0], -lps[:, 1], lps[:, 2], far]))
 
 mha = os.path.join(temp, "scan.mha")
 subprocess.run([args.dentsim, "phantom", "--format", "mha", "--out", mha], check=True, capture_output=True)
@@ -112,6 +129,7 @@ def same(what, ours, theirs):
 
 readers = [
     ("DICOM", series, lambda: simple.DICOMReaderdirectory(FileName=series)),
+    ("DICOM mirrored", flipped, lambda: simple.DICOMReaderdirectory(FileName=flipped)),
     ("NIfTI", peer_nifti, lambda: simple.OpenDataFile(peer_nifti)),
     ("MetaImage", mha, lambda: simple.OpenDataFile(mha)),
 ]
@@ -123,7 +141,10 @@ for what, path, open_reader in readers:
     check(reader is not None, "ParaView opens the %s file" % what)
     volumes, bounds, source = paraview(reader)
     check("dentsim's reader" in source and path in source, "%s: ScanSource says what was read: %s" % (what, source))
-    same(what, (volumes, bounds), cli(path, what))
+    same(what, (volumes, bounds), cli(path, what.replace(" ", "_")))
+    if what == "DICOM mirrored":
+        # the same tissues, in the same place, as from the series stored the usual way
+        same(what + " vs DICOM", (volumes, bounds), cli(series, "DICOM"))
 
 # The Grey Values selector: a second array (the grey values scaled and shifted, which calibration
 # reads alike) is segmented as chosen; a ramp chosen instead is refused.
