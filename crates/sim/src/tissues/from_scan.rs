@@ -152,7 +152,16 @@ impl TissuesFromScan {
         for (i, tooth) in teeth.into_iter().enumerate() {
             let one = TissuesFromScan { seed_mm: Some(tooth.seed), bounds_mm: Some((tooth.min, tooth.max)), ..self.clone() };
             let seconds = Timings { calibrate: calibrate_s / count, ..Timings::default() };
-            let (mut model, mut report) = one.run_calibrated(scan, table, calibration.clone(), seconds, &mut |step, f| progress(&format!("tooth {}: {step}", i + 1), (i as f64 + f) / count))?;
+            // Each tooth is segmented in its box grown by ALL_TEETH_MARGIN_MM (room for the
+            // surface refinement and the lesion search), not in the whole scan.
+            let region = index_box_around(scan, tooth.min, tooth.max, ALL_TEETH_MARGIN_MM);
+            let part = crop(scan, &region).map_err(cbct)?;
+            let (mut model, mut report) = one.run_calibrated(&part, table, calibration.clone(), seconds, &mut |step, f| progress(&format!("tooth {}: {step}", i + 1), (i as f64 + f) / count))?;
+            report.scan_dims = scan.dims;
+            for c in 0..3 {
+                report.crop_min[c] += region.min[c];
+                report.crop_max[c] += region.min[c];
+            }
             model.fdi_tooth = None;
             report.fdi = 0;
             report.fdi_note = ALL_TEETH_NOTE.into();
@@ -244,6 +253,24 @@ pub fn write_segmentation(model: &mut TissueModel, report: &ScanReport, out: &st
         Ok(())
     })?;
     Ok(folder.join(json_name))
+}
+
+/// Margin (mm) around a found tooth's box that [`TissuesFromScan::run_all`] segments it in.
+const ALL_TEETH_MARGIN_MM: f64 = 4.0;
+
+/// The scan's voxel box holding an LPS box grown by `margin_mm`, clipped to the scan.
+fn index_box_around(scan: &Volume, lo: [f64; 3], hi: [f64; 3], margin_mm: f64) -> dentsim_cbct::IndexBox {
+    let (mut min, mut max) = ([usize::MAX; 3], [0usize; 3]);
+    for corner in 0..8 {
+        let p = [0, 1, 2].map(|c| if corner & (1 << c) == 0 { lo[c] - margin_mm } else { hi[c] + margin_mm });
+        let Some(ijk) = scan.world_to_index(p) else { return dentsim_cbct::IndexBox { min: [0; 3], max: scan.dims } };
+        for c in 0..3 {
+            let v = ijk[c].clamp(0.0, (scan.dims[c] - 1) as f64);
+            min[c] = min[c].min(v.floor() as usize);
+            max[c] = max[c].max(v.ceil() as usize + 1);
+        }
+    }
+    dentsim_cbct::IndexBox { min, max: [0, 1, 2].map(|c| max[c].min(scan.dims[c])) }
 }
 
 /// Writes every tooth of [`TissuesFromScan::run_all`] beside `out`: `<stem>_tooth<N>.vdb` with its
