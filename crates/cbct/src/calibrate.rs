@@ -1,13 +1,31 @@
 //! Per-scan grey-value calibration. CBCT grey values are not HU and vary per device and scan
-//! (REFERENCE.md "Tissue grey values"), so we find the histogram peaks, match them in order to the
-//! tissues' typical values, fit grey = a·HU + b through the matched peaks, and put each threshold
-//! midway between neighbouring tissues' grey values. Manual peaks override. Cost: one pass over
-//! the voxels plus a search over peak-to-tissue matchings (a few thousand, microseconds).
+//! (REFERENCE.md "Tissue grey values"), and a scan need not hold every tissue (an extracted tooth
+//! in air, wax, water or a holder has no bone and no soft tissue). So the histogram's peaks only
+//! propose readings; the scan's anatomy decides between them:
+//!
+//! 1. Peaks of the log-histogram (over the range without a padding value) are proposed as
+//!    (dentin, enamel) pairs, with the most frequent lower peak as the medium around the tooth;
+//!    three-class Otsu proposes one more. A proposal's grey ratio (enamel − dentin)/(dentin −
+//!    medium) must lie where any medium from air to soft tissue puts it (scale and offset cancel).
+//! 2. Each proposal is tested on the scan (`layering`): enamel is the crown's outer shell, so
+//!    where its voxels touch dentin's, the dentin lies deeper (farther from the medium). Reading
+//!    the tooth as "enamel" and wax, water or bone as "dentin" puts the "dentin" outside. The
+//!    score is (deeper − shallower contacts) / enamel surface; the best proposal wins.
+//! 3. The histogram-peak matching to all tissues (grey = a·HU + b through matched peaks) is kept
+//!    when it agrees with the winner; otherwise the line goes through the winner's dentin and
+//!    enamel, and the lower peaks are the outside tissues nearest their implied HU.
+//! 4. Confidence from the winner's score, its contacts and its lead over a proposal that reads
+//!    the tissues otherwise; below [`MIN_CONFIDENCE`], an error says what was found and how to
+//!    pass `--thresholds`.
+//!
+//! Manual peaks override. Cost: one pass to histogram, one to average 2–5³ blocks into a grid of
+//! ≥ 0.3 mm, and per proposal a distance transform of that grid (a few proposals).
 
 use crate::Label;
 use crate::error::{Error, Result};
 use crate::volume::Volume;
 use serde::{Deserialize, Serialize};
+use rayon::prelude::*;
 use std::collections::BTreeMap;
 
 /// Tissues that make histogram peaks, in increasing grey order.
@@ -27,7 +45,20 @@ pub struct Calibration {
     pub hu_offset: f64,
     /// Class boundaries in increasing grey order: a voxel above `value` is at least `above`.
     pub thresholds: Vec<Threshold>,
+    /// 0..1: how sure the reading of dentin and enamel is (1 for manual values).
+    #[serde(default = "one")]
+    pub confidence: f64,
+    /// What the scan showed: the layering test of the reading taken and of the others proposed.
+    #[serde(default)]
+    pub evidence: Vec<String>,
 }
+
+fn one() -> f64 {
+    1.0
+}
+
+/// Below this confidence, automatic calibration stops with an error instead of guessing.
+pub const MIN_CONFIDENCE: f64 = 0.5;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Threshold {
@@ -70,6 +101,8 @@ impl Calibration {
             hu_scale: a,
             hu_offset: b,
             thresholds: vec![],
+            confidence: 1.0,
+            evidence: vec![],
         };
         cal.thresholds = PEAK_TISSUES
             .windows(2)
@@ -108,17 +141,39 @@ fn fit(pts: &[(f64, f64)]) -> Option<(f64, f64)> {
     (a > 0.0 && a.is_finite()).then_some((a, my - a * mx))
 }
 
-/// Histogram of the volume over [lo, hi] in `bins` bins.
-fn histogram(vol: &Volume, bins: usize) -> (Vec<f64>, f64, f64) {
+/// Histogram of the volume in `bins` bins over its range without a padding value: a scanner
+/// fills the corners outside its round field of view with one value (often the type's minimum,
+/// far below air), which would squeeze every tissue into a few bins. Returns the histogram, its
+/// range and the padding value left out (if any).
+fn histogram(vol: &Volume, bins: usize) -> (Vec<f64>, f64, f64, Option<f64>) {
     let (lo, hi) = vol.min_max();
-    let (lo, hi) = (lo as f64, (hi as f64).max(lo as f64 + 1e-6));
+    let (mut lo, hi) = (lo as f64, hi as f64);
+    let mut padding = None;
+    let at_min = vol.values.iter().filter(|&&v| v as f64 == lo).count();
+    if at_min * 200 >= vol.values.len() {
+        let next = vol.values.iter().map(|&v| v as f64).filter(|&v| v > lo).fold(f64::INFINITY, f64::min);
+        // a value set apart by a gap of over a tenth of the range is padding, not air
+        if next.is_finite() && next - lo > 0.1 * (hi - lo) {
+            padding = Some(lo);
+            lo = next;
+        }
+    }
+    let hi = hi.max(lo + 1e-6);
+    // a margin, so a tissue at the very end of the range (clipped air, a scan's top) still
+    // makes a peak inside the histogram
+    let pad = 0.02 * (hi - lo);
+    let (lo, hi) = (lo - pad, hi + pad);
     let mut h = vec![0.0; bins];
     let k = bins as f64 / (hi - lo);
     for &v in &vol.values {
-        let b = (((v as f64 - lo) * k) as usize).min(bins - 1);
+        let v = v as f64;
+        if v < lo {
+            continue;
+        }
+        let b = (((v - lo) * k) as usize).min(bins - 1);
         h[b] += 1.0;
     }
-    (h, lo, hi)
+    (h, lo, hi, padding)
 }
 
 fn smooth(h: &[f64], sigma: f64) -> Vec<f64> {
@@ -140,18 +195,20 @@ fn smooth(h: &[f64], sigma: f64) -> Vec<f64> {
         .collect()
 }
 
-/// Automatic calibration of one scan.
-pub fn calibrate(vol: &Volume) -> Result<Calibration> {
-    if vol.values.len() < 1000 {
-        return Err(Error::invalid("volume", format!("{} voxels are too few to calibrate from", vol.values.len())));
-    }
-    let bins = 512;
-    let (h, lo, hi) = histogram(vol, bins);
-    let bw = (hi - lo) / bins as f64;
-    // Log-histogram so small tissues (enamel, pulp-free dentin) still make peaks beside air and bone.
+/// A peak of the histogram: grey value and how many voxels lie near it.
+#[derive(Debug, Clone, Copy)]
+struct Peak {
+    grey: f64,
+    count: f64,
+}
+
+/// Prominent peaks of the log-histogram (so small tissues, enamel, still show beside air and
+/// bone), at most 9, in grey order.
+fn peaks(h: &[f64], lo: f64, bw: f64) -> Vec<Peak> {
+    let bins = h.len();
     let logh: Vec<f64> = h.iter().map(|&c| (1.0 + c).ln()).collect();
     let s = smooth(&logh, 3.0);
-    let mut peaks: Vec<(usize, f64)> = Vec::new();
+    let mut found: Vec<(usize, f64)> = Vec::new();
     for i in 1..bins - 1 {
         if s[i] > s[i - 1] && s[i] >= s[i + 1] && h[i] > 0.0 {
             // prominence: drop to the lowest point before a higher peak on each side
@@ -159,15 +216,353 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
             let right = (i + 1..bins).take_while(|&j| s[j] <= s[i]).map(|j| s[j]).fold(s[i], f64::min);
             let prom = s[i] - left.max(right);
             if prom > 0.15 {
-                peaks.push((i, prom));
+                found.push((i, prom));
             }
         }
     }
-    // keep the 9 most prominent, in grey order
-    peaks.sort_by(|a, b| b.1.total_cmp(&a.1));
-    peaks.truncate(9);
-    peaks.sort_by_key(|p| p.0);
-    let grey: Vec<f64> = peaks.iter().map(|p| lo + (p.0 as f64 + 0.5) * bw).collect();
+    found.sort_by(|a, b| b.1.total_cmp(&a.1));
+    found.truncate(9);
+    found.sort_by_key(|p| p.0);
+    let count = |i: usize| h[i.saturating_sub(3)..(i + 4).min(bins)].iter().sum::<f64>();
+    found.iter().map(|&(i, _)| Peak { grey: lo + (i as f64 + 0.5) * bw, count: count(i) }).collect()
+}
+
+/// Automatic calibration of one scan (see the module comment); errors when the scan's anatomy
+/// does not make the reading sure enough.
+pub fn calibrate(vol: &Volume) -> Result<Calibration> {
+    if vol.values.len() < 1000 {
+        return Err(Error::invalid("volume", format!("{} voxels are too few to calibrate from", vol.values.len())));
+    }
+    let bins = 512;
+    let (h, lo, hi, padding) = histogram(vol, bins);
+    let bw = (hi - lo) / bins as f64;
+    let found = peaks(&h, lo, bw);
+    let by_order = match_in_order(&h, lo, bw, &found);
+
+    // Proposals: (medium, dentin, enamel) grey values.
+    let mut proposals: Vec<[f64; 3]> = Vec::new();
+    let medium_below = |d: f64| -> Option<f64> {
+        found.iter().filter(|p| p.grey < d).max_by(|a, b| a.count.total_cmp(&b.count)).map(|p| p.grey).or(padding)
+    };
+    for (i, d) in found.iter().enumerate() {
+        for e in &found[i + 1..] {
+            if let Some(m) = medium_below(d.grey) {
+                proposals.push([m, d.grey, e.grey]);
+            }
+        }
+    }
+    for cal in [&by_order, &otsu(&h, lo, bw)].into_iter().flatten() {
+        let (d, e) = (cal.peak(Label::Dentin), cal.peak(Label::Enamel));
+        if let Some(m) = medium_below(d) {
+            proposals.push([m, d, e]);
+        }
+    }
+    // Scale and offset cancel in this ratio; from air to soft tissue around the tooth it is 0.3–0.55
+    // in HU, and CBCT's lower enamel–dentin contrast lowers it.
+    proposals.retain(|&[m, d, e]| {
+        let r = (e - d) / (d - m);
+        m < d && d < e && (0.12..=1.2).contains(&r)
+    });
+    let grid = Coarse::new(vol);
+    let mut tested: Vec<([f64; 3], Layering)> = proposals.iter().map(|&p| (p, grid.layering(p))).collect();
+    tested.sort_by(|a, b| b.1.score().total_cmp(&a.1.score()));
+    let peaks_text = found.iter().map(|p| format!("{:.0}", p.grey)).collect::<Vec<_>>().join(", ");
+    let Some((best, lay)) = tested.first().cloned() else {
+        return Err(refusal(vol, &peaks_text, "no pair of peaks can be dentin and enamel", None));
+    };
+    // The winner says which structures are dentin and enamel; their grey values are measured in
+    // them (a proposal's peaks may be partial-volume bumps beside the tissues' own).
+    let [m, d, e] = match grid.measure(best) {
+        Some((d, e)) if best[0] < d && d < e => [best[0], d, e],
+        _ => best,
+    };
+    // The best proposal reading the tissues otherwise: its thresholds do not both fall between
+    // the same tissues as the winner's.
+    let same = |p: &[f64; 3]| {
+        let (t1, t2) = (0.5 * (p[0] + p[1]), 0.5 * (p[1] + p[2]));
+        m < t1 && t1 < d && d < t2 && t2 < e
+    };
+    let rival = tested.iter().skip(1).find(|(p, _)| !same(p));
+    let tol = 0.25 * (e - d);
+    let rival_score = rival.map_or(0.0, |r| r.1.score().max(0.0));
+    let s = lay.score();
+    let confidence = ((s / 0.15).clamp(0.0, 1.0) * (lay.deeper as f64 / 100.0).clamp(0.0, 1.0) * ((s - rival_score) / (0.5 * s)).clamp(0.0, 1.0)).max(0.0);
+    let mut evidence = vec![format!(
+        "reading dentin {d:.0}, enamel {e:.0} (medium {m:.0}): at {} of {} enamel–dentin contacts the dentin lies deeper, at {} shallower, over {} enamel surface voxels; {} contacts of thick dentin with the medium (roots) (score {s:.3})",
+        lay.deeper,
+        lay.deeper + lay.shallower + lay.level,
+        lay.shallower,
+        lay.surface,
+        lay.bare
+    )];
+    if let Some((p, r)) = rival {
+        evidence.push(format!("next reading: dentin {:.0}, enamel {:.0} (medium {:.0}), score {:.3}", p[1], p[2], p[0], r.score()));
+    }
+    evidence.push(format!("histogram peaks at {peaks_text}{}", padding.map_or(String::new(), |p| format!("; padding value {p:.0} left out"))));
+    if confidence < MIN_CONFIDENCE {
+        let what = format!("confidence {confidence:.2} is below {MIN_CONFIDENCE}: {}", evidence.join("; "));
+        return Err(refusal(vol, &peaks_text, &what, Some((m, d, e))));
+    }
+    let agrees = by_order.as_ref().filter(|c| (c.peak(Label::Dentin) - d).abs() <= tol && (c.peak(Label::Enamel) - e).abs() <= tol);
+    let mut cal = match agrees {
+        Some(c) => c.clone(),
+        None => from_layering(&found, padding, d, e),
+    };
+    cal.confidence = confidence;
+    cal.evidence = evidence;
+    Ok(cal)
+}
+
+/// The error for a scan whose tissues cannot be told apart: what was found and how to pass the
+/// grey values by hand.
+fn refusal(vol: &Volume, peaks: &str, why: &str, guess: Option<(f64, f64, f64)>) -> Error {
+    let example = match guess {
+        Some((m, d, e)) => format!("soft_tissue={m:.0},dentin={d:.0},enamel={e:.0}"),
+        None => "soft_tissue=GREY,dentin=GREY,enamel=GREY".into(),
+    };
+    Error::invalid(
+        format!("{} (calibration)", vol.source.path),
+        format!(
+            "cannot tell enamel from dentin by the tooth's layering: {why}. Histogram peaks at {peaks}. \
+             Give the grey values of the medium around the tooth, dentin and enamel with --thresholds, e.g. --thresholds {example} \
+             (the plugin: Thresholds)"
+        ),
+    )
+}
+
+/// A calibration through the dentin and enamel read by layering: grey = a·HU + b through their
+/// typical HU; every lower peak is the outside tissue (air, soft tissue, bone) nearest its
+/// implied HU (the most frequent peak where two land on one).
+fn from_layering(found: &[Peak], padding: Option<f64>, d: f64, e: f64) -> Calibration {
+    let a = (e - d) / (Label::Enamel.typical_hu() - Label::Dentin.typical_hu());
+    let b = d - a * Label::Dentin.typical_hu();
+    let outside = [Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical];
+    let mut taken: Vec<(Label, Peak)> = Vec::new();
+    let lower = found.iter().copied().filter(|p| p.grey < d - 0.25 * (e - d)).chain(padding.filter(|_| found.iter().all(|p| p.grey >= d - 0.25 * (e - d))).map(|g| Peak { grey: g, count: 0.0 }));
+    for p in lower {
+        let hu = (p.grey - b) / a;
+        let Some(&l) = outside.iter().min_by(|x, y| (x.typical_hu() - hu).abs().total_cmp(&(y.typical_hu() - hu).abs())) else { continue };
+        match taken.iter_mut().find(|(t, _)| *t == l) {
+            Some(slot) if slot.1.count < p.count => slot.1 = p,
+            Some(_) => {}
+            None => taken.push((l, p)),
+        }
+    }
+    let mut measured: Vec<(Label, f64)> = taken.into_iter().map(|(l, p)| (l, p.grey)).collect();
+    measured.sort_by_key(|(l, _)| *l as u8);
+    // keep the order of grey values the thresholds rely on
+    let mut last = f64::NEG_INFINITY;
+    measured.retain(|(_, g)| {
+        let ok = *g > last;
+        last = last.max(*g);
+        ok
+    });
+    measured.extend([(Label::Dentin, d), (Label::Enamel, e)]);
+    Calibration::build("tooth-layering+linear-fit", &measured, a, b)
+}
+
+/// The scan averaged in blocks of 1–5 voxels per axis to a grid of ≥ 0.3 mm: enough for enamel
+/// (1–2.5 mm) to show as a layer, few voxels to test proposals on, and block means for less noise.
+struct Coarse {
+    dims: [usize; 3],
+    spacing: [f64; 3],
+    values: Vec<f32>,
+}
+
+impl Coarse {
+    fn new(vol: &Volume) -> Coarse {
+        let step = [0, 1, 2].map(|c| ((0.35 / vol.spacing[c]).round() as usize).clamp(1, 5));
+        let dims = [0, 1, 2].map(|c| (vol.dims[c] / step[c]).max(1));
+        let spacing = [0, 1, 2].map(|c| vol.spacing[c] * step[c] as f64);
+        let [nx, ny, _] = dims;
+        let mut values = vec![0f32; dims[0] * dims[1] * dims[2]];
+        values.par_chunks_mut(nx * ny).enumerate().for_each(|(k, slab)| {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let mut acc = 0.0f64;
+                    let mut n = 0usize;
+                    for dk in 0..step[2] {
+                        for dj in 0..step[1] {
+                            for di in 0..step[0] {
+                                let (x, y, z) = (i * step[0] + di, j * step[1] + dj, k * step[2] + dk);
+                                if x < vol.dims[0] && y < vol.dims[1] && z < vol.dims[2] {
+                                    acc += vol.values[vol.index(x, y, z)] as f64;
+                                    n += 1;
+                                }
+                            }
+                        }
+                    }
+                    slab[i + nx * j] = (acc / n.max(1) as f64) as f32;
+                }
+            }
+        });
+        Coarse { dims, spacing, values }
+    }
+
+    /// Grey values of dentin and enamel as a proposal reads the scan: the median of enamel voxels
+    /// inside the enamel (every neighbour enamel) and of dentin voxels inside the dentin within
+    /// two voxels of the enamel (the crown's dentin, not bone of dentin's grey).
+    fn measure(&self, [m, d, e]: [f64; 3]) -> Option<(f64, f64)> {
+        let (t1, t2) = (0.5 * (m + d), 0.5 * (d + e));
+        let [nx, ny, nz] = self.dims;
+        let class: Vec<u8> = self.values.par_iter().map(|&v| if (v as f64) <= t1 { 0 } else if (v as f64) <= t2 { 1 } else { 2 }).collect();
+        let at = |i: isize, j: isize, k: isize| -> Option<u8> {
+            (i >= 0 && j >= 0 && k >= 0 && (i as usize) < nx && (j as usize) < ny && (k as usize) < nz).then(|| class[i as usize + nx * (j as usize + ny * k as usize)])
+        };
+        let inside = |i: isize, j: isize, k: isize, c: u8| [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)].iter().all(|&(a, b, g)| at(i + a, j + b, k + g) == Some(c));
+        let near_enamel = |i: isize, j: isize, k: isize| (-2..=2).any(|a| (-2..=2).any(|b| (-2..=2).any(|g| at(i + a, j + b, k + g) == Some(2))));
+        let (mut de, mut dd) = (Vec::new(), Vec::new());
+        for k in 0..nz as isize {
+            for j in 0..ny as isize {
+                for i in 0..nx as isize {
+                    let n = i as usize + nx * (j as usize + ny * k as usize);
+                    match class[n] {
+                        2 if inside(i, j, k, 2) => de.push(self.values[n]),
+                        1 if inside(i, j, k, 1) && near_enamel(i, j, k) => dd.push(self.values[n]),
+                        _ => {}
+                    }
+                }
+            }
+        }
+        if de.len() < 8 || dd.len() < 8 {
+            return None;
+        }
+        let median = |v: &mut Vec<f32>| {
+            let h = v.len() / 2;
+            *v.select_nth_unstable_by(h, |a, b| a.total_cmp(b)).1 as f64
+        };
+        Some((median(&mut dd), median(&mut de)))
+    }
+
+    /// Tests a proposal (medium, dentin, enamel): at each 6-neighbour contact of an enamel voxel
+    /// with a dentin voxel (not one touching the medium: that is the partial-volume rim where
+    /// enamel meets the outside), walks away from the contact on each side along the axis to the
+    /// medium (at most 4 mm); the dentin lies deeper when its walk is the longer.
+    fn layering(&self, [m, d, e]: [f64; 3]) -> Layering {
+        let (t1, t2) = (0.5 * (m + d), 0.5 * (d + e));
+        let [nx, ny, nz] = self.dims;
+        let class = |v: f32| -> u8 {
+            let v = v as f64;
+            if v <= t1 {
+                0
+            } else if v <= t2 {
+                1
+            } else {
+                2
+            }
+        };
+        let at = |i: [isize; 3]| -> Option<u8> {
+            ((0..3).all(|c| i[c] >= 0 && (i[c] as usize) < self.dims[c])).then(|| class(self.values[i[0] as usize + nx * (i[1] as usize + ny * i[2] as usize)]))
+        };
+        let walk = |from: [isize; 3], axis: usize, dir: isize| -> f64 {
+            let cap = (4.0 / self.spacing[axis]).ceil() as isize;
+            let mut p = from;
+            for s in 1..=cap {
+                p[axis] += dir;
+                match at(p) {
+                    Some(0) | None => return s as f64 * self.spacing[axis],
+                    _ => {}
+                }
+            }
+            f64::INFINITY
+        };
+        let thick = |from: [isize; 3], axis: usize, dir: isize| -> bool {
+            let n = (1.0 / self.spacing[axis]).ceil() as isize;
+            let mut p = from;
+            (0..n).all(|_| {
+                p[axis] += dir;
+                at(p) == Some(1)
+            })
+        };
+        (0..nz)
+            .into_par_iter()
+            .map(|k| {
+                let mut l = Layering::default();
+                for j in 0..ny {
+                    for i in 0..nx {
+                        let p = [i as isize, j as isize, k as isize];
+                        if at(p) == Some(1) {
+                            // dentin facing the medium with ≥ 1 mm of dentin behind it: a root
+                            for axis in 0..3 {
+                                for dir in [-1isize, 1] {
+                                    let mut q = p;
+                                    q[axis] += dir;
+                                    if at(q) == Some(0) && thick(p, axis, -dir) {
+                                        l.bare += 1;
+                                    }
+                                }
+                            }
+                        }
+                        if at(p) != Some(2) {
+                            continue;
+                        }
+                        let mut on_surface = false;
+                        for axis in 0..3 {
+                            for dir in [-1isize, 1] {
+                                let mut q = p;
+                                q[axis] += dir;
+                                match at(q) {
+                                    Some(2) => {}
+                                    Some(1) => {
+                                        on_surface = true;
+                                        let touches_medium = (0..3).any(|a| {
+                                            [-1isize, 1].iter().any(|&s| {
+                                                let mut r = q;
+                                                r[a] += s;
+                                                at(r) == Some(0)
+                                            })
+                                        });
+                                        if touches_medium {
+                                            continue;
+                                        }
+                                        let (de, dd) = (walk(p, axis, -dir), walk(q, axis, dir));
+                                        let h = 0.5 * self.spacing[axis];
+                                        if dd > de + h {
+                                            l.deeper += 1;
+                                        } else if de > dd + h {
+                                            l.shallower += 1;
+                                        } else {
+                                            l.level += 1;
+                                        }
+                                    }
+                                    _ => on_surface = true,
+                                }
+                            }
+                        }
+                        l.surface += on_surface as usize;
+                    }
+                }
+                l
+            })
+            .reduce(Layering::default, |a, b| Layering { deeper: a.deeper + b.deeper, shallower: a.shallower + b.shallower, level: a.level + b.level, surface: a.surface + b.surface, bare: a.bare + b.bare })
+    }
+}
+
+/// Contacts of enamel with dentin under one proposal.
+#[derive(Debug, Clone, Copy, Default)]
+struct Layering {
+    /// dentin deeper than the enamel (enamel outside it, as in a crown)
+    deeper: usize,
+    shallower: usize,
+    level: usize,
+    /// enamel voxels with a non-enamel neighbour
+    surface: usize,
+    /// dentin facing the medium with dentin behind it (the roots: enamel covers only the
+    /// crown); a reading of the pulp as "dentin" inside a whole tooth read as "enamel" has none
+    bare: usize,
+}
+
+impl Layering {
+    fn score(&self) -> f64 {
+        let roots = (self.bare as f64 / (0.1 * self.surface.max(1) as f64)).min(1.0);
+        roots * (self.deeper as f64 - self.shallower as f64) / self.surface.max(1) as f64
+    }
+}
+
+/// The reading by histogram-peak order: peaks matched in order to the tissues' typical values
+/// (or three-class Otsu when too few peaks show).
+fn match_in_order(h: &[f64], lo: f64, bw: f64, found: &[Peak]) -> Option<Calibration> {
+    let grey: Vec<f64> = found.iter().map(|p| p.grey).collect();
     let hu: Vec<f64> = PEAK_TISSUES.iter().map(|l| l.typical_hu()).collect();
     // Search ordered matchings peaks ↔ tissues (both increasing); score = fit residual in HU plus
     // a penalty per unmatched tissue, so more matches win unless they distort the line.
@@ -175,12 +570,12 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
     let mut cur = Vec::new();
     search(&grey, &hu, 0, 0, &mut cur, &mut best);
     let Some((_, m)) = best else {
-        return otsu_fallback(vol, &h, lo, bw);
+        return otsu(h, lo, bw);
     };
     let measured: Vec<(Label, f64)> = m.iter().map(|&(p, t)| (PEAK_TISSUES[t], grey[p])).collect();
     let pts: Vec<(f64, f64)> = m.iter().map(|&(p, t)| (hu[t], grey[p])).collect();
-    let (a, b) = fit(&pts).ok_or_else(|| Error::invalid("calibration", "peaks do not increase with tissue density"))?;
-    Ok(Calibration::build("histogram-peaks+linear-fit", &measured, a, b))
+    let (a, b) = fit(&pts)?;
+    Some(Calibration::build("histogram-peaks+linear-fit", &measured, a, b))
 }
 
 fn score(grey: &[f64], hu: &[f64], m: &[(usize, usize)]) -> Option<f64> {
@@ -210,7 +605,7 @@ fn search(grey: &[f64], hu: &[f64], p0: usize, t0: usize, cur: &mut Vec<(usize, 
 
 /// Three-threshold Otsu (exhaustive on 64 bins) when too few peaks show: classes taken as air,
 /// soft tissue, dentin, enamel.
-fn otsu_fallback(vol: &Volume, h: &[f64], lo: f64, bw: f64) -> Result<Calibration> {
+fn otsu(h: &[f64], lo: f64, bw: f64) -> Option<Calibration> {
     let nb = 64;
     let f = h.len() / nb;
     let hc: Vec<f64> = (0..nb).map(|i| h[i * f..(i + 1) * f].iter().sum()).collect();
@@ -243,6 +638,24 @@ fn otsu_fallback(vol: &Volume, h: &[f64], lo: f64, bw: f64) -> Result<Calibratio
     let mean = |a: usize, b: usize| if w[b] > w[a] { (m[b] - m[a]) / (w[b] - w[a]) } else { cent(a) };
     let measured = vec![(Label::Air, mean(0, t1)), (Label::SoftTissue, mean(t1, t2)), (Label::Dentin, mean(t2, t3)), (Label::Enamel, mean(t3, nb))];
     let pts: Vec<(f64, f64)> = measured.iter().map(|(l, g)| (l.typical_hu(), *g)).collect();
-    let (a, b) = fit(&pts).ok_or_else(|| Error::invalid(vol.source.path.clone(), "calibration: histogram has no usable structure"))?;
-    Ok(Calibration::build("otsu", &measured, a, b))
+    let (a, b) = fit(&pts)?;
+    Some(Calibration::build("otsu", &measured, a, b))
+}
+
+/// Grey values per tissue from "TISSUE=GREY,..." (what `--thresholds` and the plugin's
+/// Thresholds take), for [`Calibration::manual`]; errors name the item.
+pub fn parse_thresholds(text: &str) -> Result<Vec<(Label, f64)>> {
+    text.split(',')
+        .map(str::trim)
+        .filter(|item| !item.is_empty())
+        .map(|item| {
+            let (name, value) = item.split_once('=').ok_or_else(|| Error::invalid("thresholds", format!("'{item}' is not TISSUE=GREY")))?;
+            let label = Label::from_name(name.trim()).ok_or_else(|| Error::invalid("thresholds", format!("unknown tissue '{}'", name.trim())))?;
+            let grey: f64 = value.trim().parse().map_err(|_| Error::invalid("thresholds", format!("'{}' for {} is not a number", value.trim(), name.trim())))?;
+            if !grey.is_finite() {
+                return Err(Error::invalid("thresholds", format!("{}={} is not finite", name.trim(), value.trim())));
+            }
+            Ok((label, grey))
+        })
+        .collect()
 }

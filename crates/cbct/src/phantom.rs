@@ -8,7 +8,7 @@
 //! short of the apex, no lamina dura, no cementum, no tongue or cheeks.
 
 use crate::Label;
-use crate::volume::{LabelVolume, SourceInfo, Volume, IDENTITY};
+use crate::volume::{LabelVolume, SourceInfo, Volume};
 use glam::DVec3;
 use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
@@ -28,8 +28,65 @@ pub struct PhantomSpec {
     pub noise_sigma: f32,
     /// Occlusal (hidden) caries lesion under the central fossa of 36.
     pub caries: bool,
-    /// Amalgam inlay in 37 with streak artefacts.
+    /// Amalgam inlay in 37 with streak artefacts (in the family: in the distal neighbour).
     pub restoration: bool,
+    /// The tooth of interest (FDI). 36 with the defaults below is the jaw scene above; any other
+    /// tooth (or option) makes a scene of the family: its type (incisor, canine, premolar,
+    /// molar) and jaw (upper, lower) from the number.
+    #[serde(default = "default_tooth")]
+    pub tooth: u8,
+    /// Roots of the tooth of interest (1–3); `None`: its type's usual number.
+    #[serde(default)]
+    pub roots: Option<u8>,
+    /// What surrounds the teeth.
+    #[serde(default)]
+    pub medium: Medium,
+    /// The tooth's mesial and distal neighbours are in the scene.
+    #[serde(default = "yes")]
+    pub neighbours: bool,
+    /// Rotation of the scan's grid against the patient frame (degrees about x, then y, then z):
+    /// its direction cosines.
+    #[serde(default)]
+    pub tilt_deg: [f64; 3],
+    /// Voxel size per axis (mm) when not `spacing_mm` on every axis: anisotropic voxels.
+    #[serde(default)]
+    pub spacing_xyz: Option<[f64; 3]>,
+    /// Stored as integers of this many bits (8, 12, 16), signed or not: rounded and clipped
+    /// like a scanner's file.
+    #[serde(default)]
+    pub integer: Option<(u32, bool)>,
+}
+
+fn default_tooth() -> u8 {
+    36
+}
+fn yes() -> bool {
+    true
+}
+
+/// What surrounds the teeth: the jaw (bone, gum, air), or an extracted tooth's air, wax (roots
+/// set in a block of it, crown in air) or water.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Medium {
+    #[default]
+    Jaw,
+    Air,
+    Wax,
+    Water,
+}
+
+impl Medium {
+    /// HU of what fills the scene outside the teeth (the jaw's soft tissue for `Jaw`).
+    fn soft_hu(self) -> f32 {
+        match self {
+            Medium::Jaw => Label::SoftTissue.typical_hu() as f32,
+            Medium::Air => -1000.0,
+            // paraffin wax ~ −100 HU, water 0
+            Medium::Wax => -100.0,
+            Medium::Water => 0.0,
+        }
+    }
 }
 
 impl Default for PhantomSpec {
@@ -44,6 +101,13 @@ impl Default for PhantomSpec {
             noise_sigma: 40.0,
             caries: false,
             restoration: false,
+            tooth: 36,
+            roots: None,
+            medium: Medium::Jaw,
+            neighbours: true,
+            tilt_deg: [0.0; 3],
+            spacing_xyz: None,
+            integer: None,
         }
     }
 }
@@ -52,6 +116,23 @@ impl PhantomSpec {
     /// The 400×400×300 scan at 0.2 mm (80×80×60 mm) used by the benchmark.
     pub fn benchmark() -> Self {
         PhantomSpec { dims: [400, 400, 300], ..Default::default() }
+    }
+
+    /// Voxel size per axis, mm.
+    pub fn spacing(&self) -> [f64; 3] {
+        self.spacing_xyz.unwrap_or([self.spacing_mm; 3])
+    }
+
+    /// The grid's direction cosines (`direction[c]` = LPS unit vector of index axis c).
+    pub fn direction(&self) -> [[f64; 3]; 3] {
+        let [a, b, c] = self.tilt_deg.map(f64::to_radians);
+        let r = glam::DMat3::from_rotation_z(c) * glam::DMat3::from_rotation_y(b) * glam::DMat3::from_rotation_x(a);
+        [r.x_axis.to_array(), r.y_axis.to_array(), r.z_axis.to_array()]
+    }
+
+    /// The jaw scene of 35, 36, 37 (the phantom before the family).
+    fn is_classic(&self) -> bool {
+        self.tooth == 36 && self.roots.is_none() && self.medium == Medium::Jaw && self.neighbours
     }
 }
 
@@ -119,7 +200,8 @@ impl Root {
         let t = ((p.z - self.apex.z) / (self.top.z - self.apex.z)).clamp(0.0, 1.0);
         let w = self.w_top * (0.2 + 0.8 * t);
         let slope = 0.8 * self.w_top / (self.top.z - self.apex.z).abs();
-        let q = DVec3::new(p.x, p.y - p.y.clamp(-w, w), p.z);
+        let c = self.top.y;
+        let q = DVec3::new(p.x, p.y - (p.y - c).clamp(-w, w), p.z);
         let d = sd_round_cone(q, self.top, self.apex, (self.r_top - shrink_r).max(0.05), (self.r_apex - shrink_r).max(0.05));
         // q shears y by the z-varying width: the map's largest stretch is the spectral norm of
         // [[1, slope], [0, 1]], (slope + sqrt(slope² + 4)) / 2, so dividing by it keeps |∇| ≤ 1.
@@ -227,6 +309,91 @@ impl Tooth {
         }
     }
 
+    /// An incisor: a crown flattened labiolingually with an incisal edge of three mamelons.
+    fn incisor(fdi: u8, center: DVec3, upper: bool) -> Tooth {
+        let (w, h) = if upper { (4.0, 9.5) } else { (2.8, 8.0) };
+        let cusps = (-1..=1).map(|i| (DVec3::new(i as f64 * w * 0.55, 0.3, h - 1.3), 1.3)).collect();
+        Tooth {
+            fdi,
+            center,
+            half: DVec3::new(w, 3.0, 0.5 * (h - 2.4)),
+            crown_h: h,
+            cusps,
+            fissures: vec![],
+            roots: vec![Root { top: DVec3::new(0.0, 0.0, 1.5), apex: DVec3::new(0.0, 0.3, -12.5), r_top: 2.4, r_apex: 0.5, w_top: 0.9 }],
+            enamel_t: 1.0,
+            caries: None,
+            metal: None,
+            bbox: (DVec3::new(-w - 1.0, -4.5, -13.5), DVec3::new(w + 1.0, 4.5, h + 0.5)),
+        }
+    }
+
+    /// A canine: one pointed cusp, the longest root.
+    fn canine(fdi: u8, center: DVec3) -> Tooth {
+        let h = 10.0;
+        Tooth {
+            fdi,
+            center,
+            half: DVec3::new(3.4, 3.6, 0.5 * (h - 3.0)),
+            crown_h: h,
+            cusps: vec![(DVec3::new(0.0, 0.0, h - 2.2), 2.2)],
+            fissures: vec![],
+            roots: vec![Root { top: DVec3::new(0.0, 0.0, 1.5), apex: DVec3::new(0.0, 0.3, -16.0), r_top: 2.6, r_apex: 0.6, w_top: 1.2 }],
+            enamel_t: 1.2,
+            caries: None,
+            metal: None,
+            bbox: (DVec3::new(-4.5, -5.0, -17.0), DVec3::new(4.5, 5.0, h + 0.5)),
+        }
+    }
+
+    /// Replaces the roots with `n` (1–3): one central; two mesial and distal (lower molars) or
+    /// buccal and lingual (premolars); three: two buccal and one lingual (upper molars).
+    fn with_roots(mut self, n: u8) -> Tooth {
+        let s = (self.half.x / 5.5).max(0.6);
+        let len = self.roots.iter().map(|r| r.top.z - r.apex.z).fold(0.0, f64::max);
+        let r = |x: f64, y: f64, r_top: f64, w: f64| Root { top: DVec3::new(x, y, 1.5), apex: DVec3::new(x * 1.1, y * 1.1, 1.5 - len), r_top, r_apex: 0.55, w_top: w };
+        let wide = self.half.x > 4.5;
+        self.roots = match n {
+            1 => vec![r(0.0, 0.0, 2.2 * s.max(1.0), 1.6 * s)],
+            2 if wide => vec![r(-2.3 * s, 0.0, 1.7 * s, 2.6 * s), r(2.3 * s, 0.0, 1.6 * s, 2.5 * s)],
+            2 => vec![r(0.0, -1.6, 1.5, 0.8), r(0.0, 1.6, 1.5, 0.8)],
+            _ => vec![r(-2.2 * s, -1.9 * s, 1.4 * s, 0.7 * s), r(2.2 * s, -1.9 * s, 1.3 * s, 0.7 * s), r(0.0, 2.2 * s, 1.6 * s, 0.8 * s)],
+        };
+        self
+    }
+
+    /// A tooth of the family by its FDI number (type from the number's second digit).
+    fn of_type(fdi: u8, center: DVec3, caries: bool, metal: bool) -> Tooth {
+        let (q, t) = (fdi / 10, fdi % 10);
+        let upper = matches!(q, 1 | 2 | 5 | 6);
+        let primary = q >= 5;
+        match t {
+            1 | 2 => Tooth::incisor(fdi, center, upper && t == 1),
+            3 => Tooth::canine(fdi, center),
+            4 | 5 if !primary => {
+                let mut p = Tooth::premolar(fdi, center);
+                p.metal = metal.then(|| (DVec3::new(-1.0, 0.4, p.crown_h - 1.4), DVec3::new(1.0, 0.4, p.crown_h - 1.4)));
+                if upper && t == 4 {
+                    p = p.with_roots(2);
+                }
+                p
+            }
+            _ => {
+                let scale = match t {
+                    6 | 4 => 1.0,
+                    7 | 5 => 0.95,
+                    _ => 0.9,
+                };
+                let m = Tooth::molar(fdi, center, scale, caries, metal);
+                if upper {
+                    m.with_roots(3)
+                } else {
+                    m
+                }
+            }
+        }
+    }
+
     fn outer(&self, p: DVec3) -> f64 {
         let body = sd_round_box(p - DVec3::new(0.0, 0.0, 0.4 + self.half.z), self.half, 2.6f64.min(self.half.z));
         let mut cusps = f64::INFINITY;
@@ -308,24 +475,58 @@ const CORTICAL_MM: f64 = 1.2;
 
 impl Phantom {
     pub fn new(spec: &PhantomSpec) -> Phantom {
-        // Left mandible: distal runs posterior and slightly lateral; occlusal is superior.
-        let distal = DVec3::new(0.25, 1.0, 0.0).normalize();
-        let occlusal = DVec3::Z;
+        let fdi = if crate::segment::valid_fdi(spec.tooth) { spec.tooth } else { 36 };
+        let (q, t) = (fdi / 10, fdi % 10);
+        let upper = matches!(q, 1 | 2 | 5 | 6);
+        // Left side (quadrants 2, 3): distal runs posterior and slightly lateral (+x, +y in LPS);
+        // right side mirrored in x. Occlusal is superior in the lower jaw, inferior in the upper.
+        let left = matches!(q, 2 | 3 | 6 | 7);
+        let distal = DVec3::new(if left { 0.25 } else { -0.25 }, 1.0, 0.0).normalize();
+        let occlusal = if upper { -DVec3::Z } else { DVec3::Z };
         let lingual = occlusal.cross(distal).normalize() * -1.0;
         let axes = [distal, lingual, occlusal];
-        let anchor = DVec3::new(24.0, 18.0, -35.0);
-        let teeth = vec![
-            Tooth::premolar(35, DVec3::new(-9.5, 0.2, 0.3)),
-            Tooth::molar(36, DVec3::ZERO, 1.0, spec.caries, false),
-            Tooth::molar(37, DVec3::new(11.2, 0.0, -0.2), 0.95, false, spec.restoration),
-        ];
-        let s = spec.spacing_mm;
+        let anchor = DVec3::new(if left { 24.0 } else { -24.0 }, 18.0 - 2.5 * (6.0 - t as f64), if upper { -5.0 } else { -35.0 });
+        let teeth = if spec.is_classic() {
+            vec![
+                Tooth::premolar(35, DVec3::new(-9.5, 0.2, 0.3)),
+                Tooth::molar(36, DVec3::ZERO, 1.0, spec.caries, false),
+                Tooth::molar(37, DVec3::new(11.2, 0.0, -0.2), 0.95, false, spec.restoration),
+            ]
+        } else {
+            let mut main = Tooth::of_type(fdi, DVec3::ZERO, spec.caries && t >= 6, false);
+            if let Some(n) = spec.roots {
+                main = main.with_roots(n.clamp(1, 3));
+            }
+            let mut teeth = vec![];
+            if spec.neighbours {
+                // mesial neighbour (toward the midline; across it for a central incisor) and
+                // distal one, nearly in contact with the tooth (0.5 mm apart at their widest: the flat sides of these crowns would otherwise touch over an area, where real crowns touch at a point)
+                let mesial_fdi = if t == 1 { fdi + if q % 2 == 1 { 10 } else { 0 } - if q % 2 == 0 { 10 } else { 0 } } else { fdi - 1 };
+                let distal_fdi = if t < 8 { Some(fdi + 1) } else { None };
+                let widest = |tooth: &Tooth| tooth.half.x + tooth.cusps.iter().map(|(c, r)| c.x.abs() + r - tooth.half.x).fold(0.0, f64::max).max(0.0);
+                let w0 = widest(&main);
+                let m = Tooth::of_type(mesial_fdi, DVec3::ZERO, false, false);
+                let x = -(w0 + widest(&m) + 0.5);
+                teeth.push(Tooth::of_type(mesial_fdi, DVec3::new(x, 0.2, 0.3), false, false));
+                if let Some(d) = distal_fdi {
+                    let dt = Tooth::of_type(d, DVec3::ZERO, false, spec.restoration);
+                    let x = w0 + widest(&dt) + 0.5;
+                    teeth.push(Tooth::of_type(d, DVec3::new(x, 0.0, -0.2), false, spec.restoration));
+                }
+            }
+            teeth.insert(0, main);
+            teeth
+        };
+        let s = spec.spacing();
+        let dir = spec.direction();
         let centre = anchor + occlusal * -3.0;
-        let origin = [
-            centre.x - 0.5 * (spec.dims[0] as f64 - 1.0) * s,
-            centre.y - 0.5 * (spec.dims[1] as f64 - 1.0) * s,
-            centre.z - 0.5 * (spec.dims[2] as f64 - 1.0) * s,
-        ];
+        // grid centred on `centre` along its own axes
+        let mut origin = centre.to_array();
+        for c in 0..3 {
+            for r in 0..3 {
+                origin[r] -= dir[c][r] * 0.5 * (spec.dims[c] as f64 - 1.0) * s[c];
+            }
+        }
         Phantom { spec: spec.clone(), teeth, axes, anchor, origin }
     }
 
@@ -341,6 +542,11 @@ impl Phantom {
     /// FDI numbers of the teeth in the scene.
     pub fn teeth(&self) -> Vec<u8> {
         self.teeth.iter().map(|t| t.fdi).collect()
+    }
+
+    /// The wax block the roots are set in (local frame): up to 1 mm below the CEJ.
+    fn wax(&self, l: DVec3) -> f64 {
+        sd_round_box(l - DVec3::new(0.0, 0.0, -12.5), DVec3::new(22.0, 9.0, 11.5), 1.0)
     }
 
     fn bone(&self, l: DVec3) -> f64 {
@@ -373,6 +579,15 @@ impl Phantom {
         if let Some((e, _)) = inside {
             let label = e.label();
             return SceneEval { label, margin };
+        }
+        match self.spec.medium {
+            Medium::Jaw => {}
+            Medium::Air => return SceneEval { label: Label::Air, margin },
+            Medium::Water => return SceneEval { label: Label::SoftTissue, margin },
+            Medium::Wax => {
+                let w = self.wax(l);
+                return SceneEval { label: if w < 0.0 { Label::SoftTissue } else { Label::Air }, margin: margin.min(w.abs()) };
+            }
         }
         let b = self.bone(l);
         let g = self.gum(l);
@@ -540,8 +755,19 @@ impl Phantom {
     }
 
     fn voxel_center(&self, i: usize, j: usize, k: usize) -> DVec3 {
-        let s = self.spec.spacing_mm;
-        DVec3::new(self.origin[0] + i as f64 * s, self.origin[1] + j as f64 * s, self.origin[2] + k as f64 * s)
+        let s = self.spec.spacing();
+        let d = self.spec.direction();
+        let idx = [i as f64, j as f64, k as f64];
+        let mut p = DVec3::from_array(self.origin);
+        for c in 0..3 {
+            p += DVec3::from_array(d[c]) * (idx[c] * s[c]);
+        }
+        p
+    }
+
+    /// The tooth of interest (FDI).
+    pub fn tooth(&self) -> u8 {
+        self.teeth[if self.spec.is_classic() { 1 } else { 0 }].fdi
     }
 
     /// Ground truth at the scan grid (label at each voxel centre), all teeth.
@@ -555,7 +781,7 @@ impl Phantom {
                 }
             }
         });
-        LabelVolume { dims: self.spec.dims, spacing: [self.spec.spacing_mm; 3], origin: self.origin, direction: IDENTITY, labels }
+        LabelVolume { dims: self.spec.dims, spacing: self.spec.spacing(), origin: self.origin, direction: self.spec.direction(), labels }
     }
 
     /// Ground truth of one tooth: its own tissues kept, other teeth's tissues set to air
@@ -579,25 +805,28 @@ impl Phantom {
     /// detector's top (3071 HU). Deterministic from the seed.
     pub fn scan(&self) -> Volume {
         let [nx, ny, nz] = self.spec.dims;
-        let s = self.spec.spacing_mm;
+        let sp = self.spec.spacing();
         let mut hu = vec![0f32; nx * ny * nz];
         let metal_hu = 8000.0f32;
-        let hu_of = |l: Label| if l == Label::Metal { metal_hu } else { l.typical_hu() as f32 };
+        let soft = self.spec.medium.soft_hu();
+        let hu_of = |l: Label| match l {
+            Label::Metal => metal_hu,
+            Label::SoftTissue => soft,
+            _ => l.typical_hu() as f32,
+        };
         hu.par_chunks_mut(nx * ny).enumerate().for_each(|(k, sl)| {
             for j in 0..ny {
                 for i in 0..nx {
                     let c = self.voxel_center(i, j, k);
                     let e = self.scene(c);
-                    sl[i + nx * j] = if e.margin > 0.87 * s {
+                    sl[i + nx * j] = if e.margin > 0.87 * sp.iter().cloned().fold(0.0, f64::max) {
                         hu_of(e.label)
                     } else {
                         let mut acc = 0.0;
                         for d in 0..8 {
-                            let o = DVec3::new(
-                                if d & 1 == 0 { -0.25 } else { 0.25 },
-                                if d & 2 == 0 { -0.25 } else { 0.25 },
-                                if d & 4 == 0 { -0.25 } else { 0.25 },
-                            ) * s;
+                            let dir = self.spec.direction();
+                            let f = [d & 1, d & 2, d & 4].map(|b| if b == 0 { -0.25 } else { 0.25 });
+                            let o = (0..3).fold(DVec3::ZERO, |o, a| o + DVec3::from_array(dir[a]) * (f[a] * sp[a]));
                             acc += hu_of(self.label_at(c + o));
                         }
                         acc / 8.0
@@ -606,7 +835,7 @@ impl Phantom {
             }
         });
         if self.spec.blur_sigma_mm > 0.0 {
-            gaussian_blur(&mut hu, self.spec.dims, [self.spec.blur_sigma_mm / s; 3]);
+            gaussian_blur(&mut hu, self.spec.dims, sp.map(|a| self.spec.blur_sigma_mm / a));
         }
         if self.spec.restoration {
             self.add_streaks(&mut hu);
@@ -628,6 +857,11 @@ impl Phantom {
                 *v = scale * (*v + n).min(top) + offset;
             }
         });
+        if let Some((bits, signed)) = self.spec.integer {
+            let bits = bits.clamp(2, 24) as i32;
+            let (lo, hi) = if signed { (-(2f32.powi(bits - 1)), 2f32.powi(bits - 1) - 1.0) } else { (0.0, 2f32.powi(bits) - 1.0) };
+            hu.par_iter_mut().for_each(|v| *v = v.round().clamp(lo, hi));
+        }
         let source = SourceInfo {
             format: "phantom".into(),
             path: format!("phantom:seed={}", self.spec.seed),
@@ -635,7 +869,7 @@ impl Phantom {
             manufacturer: Some("dentsim phantom".into()),
             ..Default::default()
         };
-        Volume { dims: self.spec.dims, spacing: [s; 3], origin: self.origin, direction: IDENTITY, values: hu, source }
+        Volume { dims: self.spec.dims, spacing: sp, origin: self.origin, direction: self.spec.direction(), values: hu, source }
     }
 
     /// Bright and dark bands along lines through the metal in each axial slice it spans, as
@@ -645,17 +879,19 @@ impl Phantom {
         let Some((a, b)) = t.metal else { return };
         let centre = self.to_world(t.center + (a + b) * 0.5);
         let [nx, ny, _] = self.spec.dims;
-        let s = self.spec.spacing_mm;
         let (z0, z1) = (centre.z - 2.0, centre.z + 2.0);
         hu.par_chunks_mut(nx * ny).enumerate().for_each(|(k, sl)| {
-            let z = self.origin[2] + k as f64 * s;
-            if z < z0 || z > z1 {
+            let z = self.voxel_center(0, 0, k).z;
+            if (z < z0 || z > z1) && self.spec.tilt_deg == [0.0; 3] {
                 return;
             }
-            let fade = 1.0 - ((z - centre.z) / 2.0).abs();
             for j in 0..ny {
                 for i in 0..nx {
                     let p = self.voxel_center(i, j, k);
+                    if p.z < z0 || p.z > z1 {
+                        continue;
+                    }
+                    let fade = 1.0 - ((p.z - centre.z) / 2.0).abs();
                     let d = DVec3::new(p.x - centre.x, p.y - centre.y, 0.0);
                     let r = d.length();
                     let mut add = 0.0;
@@ -714,4 +950,100 @@ pub fn gaussian_blur(v: &mut [f32], dims: [usize; 3], sigma: [f64; 3]) {
             }
         }
     }
+}
+
+/// One scan of the phantom family, named for what it varies.
+#[derive(Debug, Clone)]
+pub struct FamilyCase {
+    pub name: String,
+    pub spec: PhantomSpec,
+}
+
+/// The phantom family: every tooth type, upper and lower, one to three roots, in the jaw with
+/// neighbours (the field of view cutting them, or holding them), alone in air, wax or water;
+/// tilted grids, anisotropic voxels, voxel sizes 0.075–0.4 mm, a restoration, noise, grey scales
+/// and offsets of CT (HU) and CBCT, 8/12/16-bit signed and unsigned. `full = false` gives the
+/// small, coarse cases a test sweeps in seconds; `full` adds fine voxels and big fields of view.
+pub fn family(full: bool) -> Vec<FamilyCase> {
+    // field of view (mm): x lateral, y ≈ mesiodistal, z along the tooth
+    let fov = |spec: &mut PhantomSpec, extent: [f64; 3]| {
+        let s = spec.spacing();
+        spec.dims = [0, 1, 2].map(|c| (extent[c] / s[c]).round() as usize);
+    };
+    let case = |name: &str, tooth: u8, medium: Medium, spacing: f64, f: &dyn Fn(&mut PhantomSpec)| {
+        let mut spec = PhantomSpec { tooth, medium, neighbours: medium == Medium::Jaw, spacing_mm: spacing, seed: tooth as u64, ..Default::default() };
+        f(&mut spec);
+        let cut = if spec.neighbours { [20.0, 24.0, 29.0] } else { [18.0, 18.0, 29.0] };
+        if spec.dims == PhantomSpec::default().dims {
+            fov(&mut spec, cut);
+        }
+        FamilyCase { name: format!("{name} (tooth {tooth}, {:?}, {spacing} mm)", medium).to_lowercase(), spec }
+    };
+    let none = |_: &mut PhantomSpec| {};
+    let mut cases = vec![
+        case("lower molar in the jaw, field cutting neighbours", 46, Medium::Jaw, 0.3, &none),
+        case("upper molar, 3 roots, alone in air", 16, Medium::Air, 0.3, &none),
+        case("lower premolar in wax", 35, Medium::Wax, 0.3, &|s| s.scale = 0.5),
+        case("upper canine in water", 13, Medium::Water, 0.3, &|s| {
+            s.scale = 1.0;
+            s.offset = 0.0
+        }),
+        case("upper incisor in air, CT in HU, 16-bit signed", 11, Medium::Air, 0.25, &|s| {
+            s.scale = 1.0;
+            s.offset = 0.0;
+            s.integer = Some((16, true));
+        }),
+        case("lower incisor in the jaw, tilted grid", 31, Medium::Jaw, 0.3, &|s| s.tilt_deg = [12.0, -8.0, 25.0]),
+        case("upper premolar, 2 roots, anisotropic voxels, 8-bit", 24, Medium::Air, 0.3, &|s| {
+            s.spacing_xyz = Some([0.3, 0.25, 0.4]);
+            s.scale = 0.06;
+            s.offset = 70.0;
+            s.noise_sigma = 30.0;
+            s.integer = Some((8, false));
+        }),
+        case("lower molar with a restored neighbour, 12-bit", 36, Medium::Jaw, 0.3, &|s| {
+            s.neighbours = true;
+            s.roots = Some(3);
+            s.restoration = true;
+            s.scale = 0.7;
+            s.offset = 1200.0;
+            s.integer = Some((12, false));
+        }),
+    ];
+    if full {
+        cases.extend([
+            case("lower molar in the jaw, whole neighbours", 36, Medium::Jaw, 0.2, &|s| {
+                s.roots = Some(2);
+                let sp = s.spacing();
+                s.dims = [(24.0 / sp[0]) as usize, (40.0 / sp[1]) as usize, (29.0 / sp[2]) as usize];
+            }),
+            case("upper molar in the jaw", 27, Medium::Jaw, 0.2, &none),
+            case("lower canine in the jaw", 43, Medium::Jaw, 0.2, &none),
+            case("upper incisor in the jaw, tilted", 21, Medium::Jaw, 0.15, &|s| s.tilt_deg = [-10.0, 15.0, -30.0]),
+            case("lower premolar in the jaw, noisy", 44, Medium::Jaw, 0.2, &|s| s.noise_sigma = 80.0),
+            case("lower molar alone in air, 1 root", 47, Medium::Air, 0.2, &|s| s.roots = Some(1)),
+            case("upper molar in wax", 17, Medium::Wax, 0.15, &none),
+            case("lower incisor in water, fine voxels", 41, Medium::Water, 0.075, &|s| {
+                let sp = s.spacing();
+                s.dims = [(12.0 / sp[0]) as usize, (12.0 / sp[1]) as usize, (26.0 / sp[2]) as usize];
+            }),
+            case("upper canine in air, coarse voxels", 23, Medium::Air, 0.4, &none),
+            case("lower molar in the jaw, coarse voxels, HU offset", 36, Medium::Jaw, 0.4, &|s| {
+                s.roots = Some(2);
+                s.scale = 1.0;
+                s.offset = -1024.0;
+                s.integer = Some((16, false));
+            }),
+            case("upper premolar in wax, anisotropic, tilted", 15, Medium::Wax, 0.2, &|s| {
+                s.spacing_xyz = Some([0.2, 0.2, 0.35]);
+                s.tilt_deg = [5.0, 5.0, 60.0];
+            }),
+            case("lower premolar in air, 8-bit signed", 34, Medium::Air, 0.25, &|s| {
+                s.scale = 0.03;
+                s.offset = -20.0;
+                s.integer = Some((8, true));
+            }),
+        ]);
+    }
+    cases
 }

@@ -469,6 +469,139 @@ fn snap(v: f64, cal: &Calibration, among: &[Label]) -> Label {
     *among.iter().min_by(|a, b| (cal.peak(**a) - v).abs().total_cmp(&(cal.peak(**b) - v).abs())).unwrap_or(&among[0])
 }
 
+/// Each hard-tissue voxel's tooth (0 = none): the core eroded by ~0.6 mm, its components (the
+/// small ones dropped) regrown over the core.
+fn tooth_markers(g: &Grid, vol: &Volume, core: &[bool], opts: &SegmentOptions) -> (Vec<u32>, Vec<usize>) {
+    let n = g.n();
+    // Markers: the core eroded by ~0.6 mm, which separates teeth touching at contact points and
+    // roots touching bone; each marker then regrows over the core (multi-source breadth-first),
+    // so every core voxel goes to the nearest marker.
+    let r = if opts.opening { ((0.6 / vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min)).round() as usize).clamp(1, 4) } else { 0 };
+    let mut eroded = core.to_vec();
+    for _ in 0..r {
+        eroded = morph(g, &eroded, false);
+    }
+    let (mut id, sizes) = components(g, &eroded);
+    // Small markers (thin root walls cut apart by the erosion, noise) would steal parts of a
+    // tooth: drop them, and let the big ones regrow over their voxels.
+    let vox = vol.spacing[0] * vol.spacing[1] * vol.spacing[2];
+    let min_marker = ((3.0 / vox) as usize).max(opts.min_component_voxels);
+    id.iter_mut().for_each(|c| {
+        if *c != 0 && sizes[*c as usize] < min_marker {
+            *c = 0;
+        }
+    });
+    {
+        let mut q: VecDeque<usize> = (0..n).filter(|&m| id[m] != 0).collect();
+        let mut nb = [0usize; 6];
+        while let Some(m) = q.pop_front() {
+            let c = g.nb6(m, &mut nb);
+            for &t in &nb[..c] {
+                if core[t] && id[t] == 0 {
+                    id[t] = id[m];
+                    q.push_back(t);
+                }
+            }
+        }
+    }
+    (id, sizes)
+}
+
+/// A tooth found in the scan: its own object, told from the others by the same markers
+/// segmentation uses (hard tissue eroded apart at contacts, regrown).
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FoundTooth {
+    /// An LPS point inside it (a marker voxel nearest the marker's centroid): a seed for
+    /// [`segment`].
+    pub seed: [f64; 3],
+    /// LPS box of its voxels (voxel centres), mm.
+    pub min: [f64; 3],
+    pub max: [f64; 3],
+    /// Hard tissue (dentin and enamel class) and enamel-class volume, mm³ at the scan's grid.
+    pub hard_mm3: f64,
+    pub enamel_mm3: f64,
+    /// It reaches the scan's border: the field of view cuts it.
+    pub cut_by_field_of_view: bool,
+}
+
+/// Every tooth in the scan, largest first: each hard-tissue object with a crown (at least
+/// `MIN_ENAMEL_MM3` of enamel; bone and specks have none).
+pub fn find_teeth(vol: &Volume, cal: &Calibration) -> Result<Vec<FoundTooth>> {
+    const MIN_ENAMEL_MM3: f64 = 5.0;
+    let g = Grid { d: vol.dims };
+    let n = g.n();
+    if n == 0 || vol.values.len() != n {
+        return Err(Error::invalid("volume", "empty or inconsistent volume"));
+    }
+    let mut labels: Vec<u8> = vol.values.par_iter().map(|&v| cal.classify(v as f64) as u8).collect();
+    clean_metal(&g, vol, &mut labels);
+    let core: Vec<bool> = labels.par_iter().map(|&l| l == Label::Dentin as u8 || l == Label::Enamel as u8).collect();
+    let opts = SegmentOptions::default();
+    let (id, _) = tooth_markers(&g, vol, &core, &opts);
+    let count = id.iter().copied().max().unwrap_or(0) as usize + 1;
+    #[derive(Clone)]
+    struct Acc {
+        hard: usize,
+        enamel: usize,
+        lo: [usize; 3],
+        hi: [usize; 3],
+        sum: [f64; 3],
+    }
+    let mut acc = vec![Acc { hard: 0, enamel: 0, lo: [usize::MAX; 3], hi: [0; 3], sum: [0.0; 3] }; count];
+    for m in 0..n {
+        let c = id[m] as usize;
+        if c == 0 {
+            continue;
+        }
+        let p = g.ijk(m);
+        let a = &mut acc[c];
+        a.hard += 1;
+        a.enamel += (labels[m] == Label::Enamel as u8) as usize;
+        for k in 0..3 {
+            a.lo[k] = a.lo[k].min(p[k]);
+            a.hi[k] = a.hi[k].max(p[k]);
+            a.sum[k] += p[k] as f64;
+        }
+    }
+    let vox = vol.voxel_volume_mm3();
+    let mut teeth: Vec<(usize, FoundTooth)> = Vec::new();
+    for (c, a) in acc.iter().enumerate().skip(1) {
+        if a.hard == 0 || (a.enamel as f64) * vox < MIN_ENAMEL_MM3 {
+            continue;
+        }
+        let centroid = a.sum.map(|s| s / a.hard as f64);
+        // the voxel of this tooth nearest its centroid
+        let mut best = (f64::INFINITY, 0usize);
+        for m in 0..n {
+            if id[m] as usize == c {
+                let p = g.ijk(m);
+                let d2: f64 = (0..3).map(|k| (p[k] as f64 - centroid[k]).powi(2)).sum();
+                if d2 < best.0 {
+                    best = (d2, m);
+                }
+            }
+        }
+        let p = g.ijk(best.1);
+        let mut min = [f64::INFINITY; 3];
+        let mut max = [f64::NEG_INFINITY; 3];
+        for corner in 0..8 {
+            let q = vol.voxel_center(
+                if corner & 1 == 0 { a.lo[0] } else { a.hi[0] },
+                if corner & 2 == 0 { a.lo[1] } else { a.hi[1] },
+                if corner & 4 == 0 { a.lo[2] } else { a.hi[2] },
+            );
+            for k in 0..3 {
+                min[k] = min[k].min(q[k]);
+                max[k] = max[k].max(q[k]);
+            }
+        }
+        let cut = (0..3).any(|k| a.lo[k] == 0 || a.hi[k] + 1 == vol.dims[k]);
+        teeth.push((a.hard, FoundTooth { seed: vol.voxel_center(p[0], p[1], p[2]), min, max, hard_mm3: a.hard as f64 * vox, enamel_mm3: a.enamel as f64 * vox, cut_by_field_of_view: cut }));
+    }
+    teeth.sort_by(|a, b| b.0.cmp(&a.0));
+    Ok(teeth.into_iter().map(|(_, t)| t).collect())
+}
+
 /// Segments the scan. With `opts.tooth`, only that tooth's enamel, dentin, pulp (and caries) are
 /// labelled as such; hard tissue elsewhere (bone, other teeth) is reported as `bone_cortical`.
 /// Without it, every tooth-like component is labelled.
@@ -506,37 +639,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             });
         }
     }
-    // Markers: the core eroded by ~0.6 mm, which separates teeth touching at contact points and
-    // roots touching bone; each marker then regrows over the core (multi-source breadth-first),
-    // so every core voxel goes to the nearest marker.
-    let r = if opts.opening { ((0.6 / vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min)).round() as usize).clamp(1, 4) } else { 0 };
-    let mut eroded = core.clone();
-    for _ in 0..r {
-        eroded = morph(&g, &eroded, false);
-    }
-    let (mut id, sizes) = components(&g, &eroded);
-    // Small markers (thin root walls cut apart by the erosion, noise) would steal parts of a
-    // tooth: drop them, and let the big ones regrow over their voxels.
-    let vox = vol.spacing[0] * vol.spacing[1] * vol.spacing[2];
-    let min_marker = ((3.0 / vox) as usize).max(opts.min_component_voxels);
-    id.iter_mut().for_each(|c| {
-        if *c != 0 && sizes[*c as usize] < min_marker {
-            *c = 0;
-        }
-    });
-    {
-        let mut q: VecDeque<usize> = (0..n).filter(|&m| id[m] != 0).collect();
-        let mut nb = [0usize; 6];
-        while let Some(m) = q.pop_front() {
-            let c = g.nb6(m, &mut nb);
-            for &t in &nb[..c] {
-                if core[t] && id[t] == 0 {
-                    id[t] = id[m];
-                    q.push_back(t);
-                }
-            }
-        }
-    }
+    let (id, sizes) = tooth_markers(&g, vol, &core, opts);
     let keep: Vec<bool> = match &opts.tooth {
         Some(sel) => {
             let s = vol.world_to_index(sel.seed).ok_or_else(|| Error::invalid("tooth.seed", "degenerate geometry"))?;

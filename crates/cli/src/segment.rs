@@ -17,13 +17,18 @@ pub struct Args {
     /// FDI (ISO 3950) number of the tooth.
     #[arg(long, default_value_t = 36)]
     tooth: u8,
+    /// Every tooth in the scan, each its own object, written as <out stem>_tooth<N>.vdb (N by
+    /// size, 1 the largest) with its report; --tooth and --point are not used.
+    #[arg(long, conflicts_with_all = ["point"])]
+    all_teeth: bool,
     /// A point in the tooth, LPS mm: X,Y,Z [default: the scan's centre, nearest tooth].
     #[arg(long, allow_hyphen_values = true, value_parser = crate::args::parse_xyz)]
     point: Option<[f64; 3]>,
     /// Tissue table overrides (TOML).
     #[arg(long)]
     tissues: Option<PathBuf>,
-    /// Grey values overriding the automatic calibration, e.g. soft_tissue=1150,dentin=2580,enamel=3350.
+    /// Grey values overriding the automatic calibration, e.g. soft_tissue=1150,dentin=2580,enamel=3350
+    /// (needed where the scan's layering does not tell enamel from dentin: the error says so).
     #[arg(long, value_delimiter = ',')]
     thresholds: Vec<String>,
     #[command(flatten)]
@@ -50,6 +55,33 @@ pub fn run(args: &Args) -> Result<()> {
     for note in &scan.source.notes {
         bar.suspend(|| eprintln!("warning: {note}"));
     }
+    if args.all_teeth {
+        let mut teeth = request.run_all(&scan, &table, &mut |step, fraction| {
+            bar.set_message(step.to_owned());
+            bar.set_position((fraction * 95.0) as u64);
+        })?;
+        bar.set_message(format!("writing beside {}", args.out.display()));
+        let paths = dentsim_sim::tissues::from_scan::write_all_segmentations(&mut teeth, &args.out)?;
+        bar.finish_and_clear();
+        println!("{}", dentsim_sim::tissues::from_scan::ALL_TEETH_NOTE);
+        if let Some((_, report)) = teeth.first() {
+            print_calibration(report);
+        }
+        for ((_, report), path) in teeth.iter().zip(&paths) {
+            let Some((n, found)) = &report.found else { continue };
+            let volumes: Vec<String> = report.tissues.iter().map(|t| format!("{} {:.2} mm³", t.name, t.volume_mm3)).collect();
+            let cut = if found.cut_by_field_of_view { " (cut by the field of view)" } else { "" };
+            println!(
+                "tooth {n} near {:.2},{:.2},{:.2} mm{cut}: {} -> {}",
+                found.seed[0],
+                found.seed[1],
+                found.seed[2],
+                volumes.join(", "),
+                path.display()
+            );
+        }
+        return Ok(());
+    }
     let (mut model, report) = request.run(&scan, &table, &mut |step, fraction| {
         bar.set_message(step.to_owned());
         bar.set_position((fraction * 95.0) as u64);
@@ -58,12 +90,22 @@ pub fn run(args: &Args) -> Result<()> {
     let report_path = dentsim_sim::tissues::from_scan::write_segmentation(&mut model, &report, &args.out)?;
     bar.finish_and_clear();
     println!("{}", report.fdi_note);
-    println!("calibration: {} (grey = {:.3} HU + {:.1})", report.calibration.method, report.calibration.hu_scale, report.calibration.hu_offset);
+    print_calibration(&report);
     for t in &report.tissues {
         println!("{:<8} {:>9.2} mm³", t.name, t.volume_mm3);
     }
     println!("wrote {} and {}", args.out.display(), report_path.display());
     Ok(())
+}
+
+fn print_calibration(report: &dentsim_sim::tissues::from_scan::ScanReport) {
+    println!(
+        "calibration: {} (grey = {:.3} HU + {:.1}), confidence {:.2}",
+        report.calibration.method, report.calibration.hu_scale, report.calibration.hu_offset, report.calibration.confidence
+    );
+    for line in &report.calibration.evidence {
+        println!("  {line}");
+    }
 }
 
 fn parse_thresholds(items: &[String]) -> Result<Option<Vec<(Label, f64)>>> {

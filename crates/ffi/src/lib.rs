@@ -36,6 +36,16 @@ mod bridge {
         triangles: Vec<u32>,
     }
 
+    /// One tooth of all those found in a scan, with its tissues.
+    struct ToothSurfaces {
+        /// 1 = largest; the teeth are numbered by size, not identified.
+        tooth: u32,
+        /// A point inside it, LPS mm.
+        seed_mm: [f64; 3],
+        cut_by_field_of_view: bool,
+        tissues: Vec<TissueSurface>,
+    }
+
     /// A scalar image as VTK holds it: world = origin + direction · (ijk ∘ spacing), with the
     /// direction matrix row-major (column c is index axis c), x fastest in the values.
     struct ImageGeometry {
@@ -207,7 +217,14 @@ mod bridge {
         fn wait(self: &mut SurfaceJob) -> Result<Vec<TissueSurface>>;
         /// As `tissues_from_scan`, on a thread (progress follows segmentation's steps; an abort
         /// is honoured when segmentation returns).
-        fn start_tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Box<SurfaceJob>>;
+        /// `tissues_from_scan_source` on a thread.
+        fn start_tissues_from_scan(
+            geometry: &ImageGeometry,
+            values: &[f32],
+            params: &TissuesFromScanParams,
+            scan_path: &str,
+            thresholds: &str,
+        ) -> Result<Box<SurfaceJob>>;
         /// The tissue table as ParaView settings: a categorical colour map for the cell array
         /// `Tissue` (each tissue's colour, opacity and name), JSON for vtkSMSettings.
         fn tissue_colour_settings() -> String;
@@ -242,6 +259,20 @@ mod bridge {
         fn phantom_stroke(params: &StrokeParams) -> Result<Vec<TissueSurface>>;
         fn read_tissues(path: &str) -> Result<Vec<TissueSurface>>;
         fn tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Vec<TissueSurface>>;
+        fn tissues_from_scan_source(
+            geometry: &ImageGeometry,
+            values: &[f32],
+            params: &TissuesFromScanParams,
+            scan_path: &str,
+            thresholds: &str,
+        ) -> Result<Vec<TissueSurface>>;
+        fn teeth_from_scan_source(
+            geometry: &ImageGeometry,
+            values: &[f32],
+            params: &TissuesFromScanParams,
+            scan_path: &str,
+            thresholds: &str,
+        ) -> Result<Vec<ToothSurfaces>>;
         fn version() -> String;
         fn assess_preparation(params: &AssessmentParams) -> Result<AssessmentResult>;
         /// As `assess_preparation`, with each model taken from tissue surfaces upstream in the
@@ -256,7 +287,7 @@ mod bridge {
     }
 }
 
-pub use bridge::{AssessmentParams, AssessmentResult, AssessmentRow, BatchRow, ImageGeometry, InputSurface, PreparationParams, TissuesFromScanParams, SessionParams, SessionState, StrokeParams, TissueSurface};
+pub use bridge::{AssessmentParams, AssessmentResult, AssessmentRow, BatchRow, ImageGeometry, InputSurface, PreparationParams, TissuesFromScanParams, SessionParams, SessionState, StrokeParams, TissueSurface, ToothSurfaces};
 
 /// Runs `f`, turning a panic into an error so it never unwinds into C++.
 fn guarded<T>(what: &str, f: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
@@ -367,19 +398,34 @@ pub fn assess_preparation_from(
 
 /// One tooth's tissue surfaces from a scan already in memory (a ParaView reader's output).
 pub fn tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Vec<TissueSurface>, String> {
-    guarded("tissues from scan", || segment_scan(geometry, values.to_vec(), params, &mut |_| {}))
+    tissues_from_scan_source(geometry, values, params, "", "")
 }
 
-fn segment_scan(geometry: &ImageGeometry, values: Vec<f32>, params: &TissuesFromScanParams, progress: &mut dyn FnMut(f64)) -> Result<Vec<TissueSurface>, String> {
-    let d = geometry.direction;
-    let direction = [[d[0], d[3], d[6]], [d[1], d[4], d[7]], [d[2], d[5], d[8]]];
-    let source = dentsim_cbct::SourceInfo { format: "vtkImageData".into(), path: "ParaView input".into(), ..Default::default() };
-    let scan = dentsim_cbct::Volume::new(geometry.dims.map(|n| n as usize), geometry.spacing, geometry.origin, direction, values, source)
-        .map_err(|e| format!("input image: {e}"))?;
+/// As [`tissues_from_scan`], but from the scan's file through dentsim's reader when `scan_path`
+/// is given (ParaView's readers drop what the frame needs: DICOM's sign, origin and axes, the
+/// NIfTI/MetaImage orientation), and with grey values overriding the calibration when
+/// `thresholds` is given ("TISSUE=GREY,...").
+pub fn tissues_from_scan_source(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams, scan_path: &str, thresholds: &str) -> Result<Vec<TissueSurface>, String> {
+    guarded("tissues from scan", || segment_scan(geometry, values.to_vec(), params, scan_path, thresholds, &mut |_| {}))
+}
+
+/// The scan (the file when `scan_path` is given, else the image) segmented into one tooth's
+/// tissue surfaces; `progress` follows the work to 1.
+fn segment_scan(
+    geometry: &ImageGeometry,
+    values: Vec<f32>,
+    params: &TissuesFromScanParams,
+    scan_path: &str,
+    thresholds: &str,
+    progress: &mut dyn FnMut(f64),
+) -> Result<Vec<TissueSurface>, String> {
+    let thresholds = if thresholds.trim().is_empty() { None } else { Some(dentsim_cbct::calibrate::parse_thresholds(thresholds).map_err(|e| e.to_string())?) };
+    let scan = scan_of(geometry, values, scan_path)?;
     let request = dentsim_sim::tissues::from_scan::TissuesFromScan {
         voxel_size_mm: params.voxel_size_mm,
         fdi: params.fdi,
         seed_mm: params.use_seed.then_some(params.seed_mm),
+        thresholds,
         ..Default::default()
     };
     // Segmentation reports up to 0.9; meshing the surfaces is the rest.
@@ -387,6 +433,36 @@ fn segment_scan(geometry: &ImageGeometry, values: Vec<f32>, params: &TissuesFrom
     let surfaces = unchanged_surfaces(&model);
     progress(1.0);
     surfaces
+}
+
+/// Every tooth in the scan, each its own object with its tissues (the scan as for
+/// [`tissues_from_scan_source`]; the seed point and FDI number are not used).
+pub fn teeth_from_scan_source(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams, scan_path: &str, thresholds: &str) -> Result<Vec<ToothSurfaces>, String> {
+    guarded("teeth from scan", || {
+        let thresholds = if thresholds.trim().is_empty() { None } else { Some(dentsim_cbct::calibrate::parse_thresholds(thresholds).map_err(|e| e.to_string())?) };
+        let scan = scan_of(geometry, values.to_vec(), scan_path)?;
+        let request = dentsim_sim::tissues::from_scan::TissuesFromScan { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, thresholds, ..Default::default() };
+        let teeth = request.run_all(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
+        teeth
+            .iter()
+            .map(|(model, report)| {
+                let (n, found) = report.found.clone().ok_or("a tooth without its place")?;
+                Ok(ToothSurfaces { tooth: n as u32, seed_mm: found.seed, cut_by_field_of_view: found.cut_by_field_of_view, tissues: unchanged_surfaces(model)? })
+            })
+            .collect()
+    })
+}
+
+/// The scan: its file through dentsim's reader when `scan_path` is given, else the image ParaView
+/// passed.
+fn scan_of(geometry: &ImageGeometry, values: Vec<f32>, scan_path: &str) -> Result<dentsim_cbct::Volume, String> {
+    if !scan_path.is_empty() {
+        return dentsim_cbct::read(scan_path, &dentsim_cbct::ReadOptions::default()).map_err(|e| e.to_string());
+    }
+    let d = geometry.direction;
+    let direction = [[d[0], d[3], d[6]], [d[1], d[4], d[7]], [d[2], d[5], d[8]]];
+    let source = dentsim_cbct::SourceInfo { format: "vtkImageData".into(), path: "ParaView input".into(), ..Default::default() };
+    dentsim_cbct::Volume::new(geometry.dims.map(|n| n as usize), geometry.spacing, geometry.origin, direction, values, source).map_err(|e| format!("input image: {e}"))
 }
 
 /// A tool path cut into the tissues (or the phantom); see `sim::prepare::PreparationRequest`.
@@ -524,13 +600,21 @@ impl<T: Send + 'static> Drop for Job<T> {
     }
 }
 
-pub fn start_tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams) -> Result<Box<SurfaceJob>, String> {
+pub fn start_tissues_from_scan(
+    geometry: &ImageGeometry,
+    values: &[f32],
+    params: &TissuesFromScanParams,
+    scan_path: &str,
+    thresholds: &str,
+) -> Result<Box<SurfaceJob>, String> {
     let geometry = ImageGeometry { dims: geometry.dims, spacing: geometry.spacing, origin: geometry.origin, direction: geometry.direction };
     let params = TissuesFromScanParams { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, use_seed: params.use_seed, seed_mm: params.seed_mm };
-    let values = values.to_vec();
-    Job::spawn("tissues from scan", move |go_on| segment_scan(&geometry, values, &params, &mut |f| {
-        go_on(f);
-    }))
+    let (values, scan_path, thresholds) = (values.to_vec(), scan_path.to_owned(), thresholds.to_owned());
+    Job::spawn("tissues from scan", move |go_on| {
+        segment_scan(&geometry, values, &params, &scan_path, &thresholds, &mut |f| {
+            go_on(f);
+        })
+    })
 }
 
 pub fn start_batch_shard(manifest: &str, out: &str, index: u32, count: u32) -> Result<Box<RowsJob>, String> {

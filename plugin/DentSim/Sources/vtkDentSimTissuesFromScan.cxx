@@ -1,22 +1,73 @@
 #include "vtkDentSimTissuesFromScan.h"
 
+#include <vtkDICOMImageReader.h>
 #include <vtkDataArray.h>
+#include <vtkDataSetAttributes.h>
+#include <vtkFieldData.h>
+#include <vtkFileSeriesReader.h>
 #include <vtkImageData.h>
+#include <vtkImageReader2.h>
+#include <vtkStringArray.h>
+#include <vtksys/SystemTools.hxx>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
 #include <vtkMatrix3x3.h>
 #include <vtkMultiBlockDataSet.h>
+#include <vtkNew.h>
 #include <vtkObjectFactory.h>
 #include <vtkPointData.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
+#include <algorithm>
+#include <string>
 #include <vector>
 
 #include "vtkDentSimSurfaces.h"
 
 vtkStandardNewMacro(vtkDentSimTissuesFromScan);
 
-vtkDentSimTissuesFromScan::vtkDentSimTissuesFromScan() { this->SetNumberOfInputPorts(1); }
+vtkDentSimTissuesFromScan::vtkDentSimTissuesFromScan() {
+  this->SetNumberOfInputPorts(1);
+  // the grey values: the image's point scalars unless another array is chosen
+  this->SetInputArrayToProcess(0, 0, 0, vtkDataObject::FIELD_ASSOCIATION_POINTS,
+                               vtkDataSetAttributes::SCALARS);
+}
+
+vtkDentSimTissuesFromScan::~vtkDentSimTissuesFromScan() { this->SetThresholds(nullptr); }
+
+namespace {
+// `path` if dentsim reads its format (by its extension), else empty.
+std::string Readable(const std::string& path) {
+  const std::string lower = vtksys::SystemTools::LowerCase(path);
+  for (const std::string tail : {".nii", ".nii.gz", ".mha", ".mhd", ".dcm"}) {
+    if (lower.size() >= tail.size() && lower.compare(lower.size() - tail.size(), tail.size(), tail) == 0) {
+      return path;
+    }
+  }
+  return std::string();
+}
+
+// The scan file behind a reader dentsim reads too (a DICOM folder or file, NIfTI, MetaImage);
+// empty for any other producer.
+std::string ScanFileOf(vtkAlgorithm* producer) {
+  // ParaView puts a post filter (array conversions) after a reader's port: look past it.
+  while (producer && producer->IsA("vtkPVPostFilter") && producer->GetNumberOfInputConnections(0) > 0) {
+    producer = producer->GetInputAlgorithm(0, 0);
+  }
+  if (auto* dicom = vtkDICOMImageReader::SafeDownCast(producer)) {
+    const char* dir = dicom->GetDirectoryName();
+    const char* file = dicom->GetFileName();
+    return dir && *dir ? std::string(dir) : std::string(file ? file : "");
+  }
+  if (auto* series = vtkFileSeriesReader::SafeDownCast(producer)) {
+    if (vtkDICOMImageReader::SafeDownCast(series->GetReader())) return ScanFileOf(series->GetReader());
+    const char* current = series->GetCurrentFileName();
+    return current && *current ? Readable(current) : ScanFileOf(series->GetReader());
+  }
+  auto* reader = vtkImageReader2::SafeDownCast(producer);
+  return reader && reader->GetFileName() ? Readable(reader->GetFileName()) : std::string();
+}
+}  // namespace
 
 int vtkDentSimTissuesFromScan::FillInputPortInformation(int, vtkInformation* info) {
   info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkImageData");
@@ -48,12 +99,14 @@ int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector
   vtkMultiBlockDataSet::GetData(outputVector, 0)->Initialize();
   if (!dentsim::IsPieceZero(outputVector)) return 1;
   vtkImageData* image = vtkImageData::GetData(inputVector[0], 0);
-  vtkDataArray* scalars = image ? image->GetPointData()->GetScalars() : nullptr;
-  if (!scalars) {
-    vtkErrorMacro(<< "DentSim: the input image has no point scalars (grey values)");
+  vtkDataArray* scalars = image ? this->GetInputArrayToProcess(0, inputVector) : nullptr;
+  const std::string scanFile = this->ReadScanFile ? ScanFileOf(this->GetInputAlgorithm(0, 0)) : std::string();
+  if (!scalars && scanFile.empty()) {
+    vtkErrorMacro(<< "DentSim: the input image has no point array of grey values"
+                  << " (Grey Values chooses one)");
     return 0;
   }
-  if (scalars->GetNumberOfComponents() != 1) {
+  if (scanFile.empty() && scalars->GetNumberOfComponents() != 1) {
     vtkErrorMacro(<< "DentSim: the input array '" << (scalars->GetName() ? scalars->GetName() : "")
                   << "' has " << scalars->GetNumberOfComponents()
                   << " components; a CBCT scan has one");
@@ -71,7 +124,8 @@ int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector
     geometry.origin[r] = origin[r];
     for (int c = 0; c < 3; ++c) geometry.direction[3 * r + c] = direction->GetElement(r, c);
   }
-  const vtkIdType n = scalars->GetNumberOfTuples();
+  // The file is read again by dentsim: no copy of the image's values is needed then.
+  const vtkIdType n = scanFile.empty() ? scalars->GetNumberOfTuples() : 0;
   std::vector<float> values(static_cast<size_t>(n));
   for (vtkIdType i = 0; i < n; ++i) values[i] = static_cast<float>(scalars->GetComponent(i, 0));
 
@@ -80,16 +134,54 @@ int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector
   params.fdi = static_cast<uint8_t>(this->Tooth > 0 && this->Tooth < 256 ? this->Tooth : 0);
   params.use_seed = this->UseSeedPoint;
   for (int i = 0; i < 3; ++i) params.seed_mm[i] = this->SeedPoint[i];
+  vtkMultiBlockDataSet* output = vtkMultiBlockDataSet::GetData(outputVector, 0);
+  const rust::Slice<const float> grey(values.data(), values.size());
+  const char* thresholds = this->Thresholds ? this->Thresholds : "";
+  std::vector<vtkMultiBlockDataSet*> tissueSets;  // the blocks holding tissues
   try {
-    dentsim::FillTissueBlocks(
-        dentsim::RunJob(this, dentsim::ffi::start_tissues_from_scan(
-                                  geometry, rust::Slice<const float>(values.data(), values.size()),
-                                  params)),
-        vtkMultiBlockDataSet::GetData(outputVector, 0));
+    if (this->AllTeeth) {
+      const auto teeth = dentsim::ffi::teeth_from_scan_source(geometry, grey, params, scanFile, thresholds);
+      output->SetNumberOfBlocks(static_cast<unsigned int>(teeth.size()));
+      unsigned int b = 0;
+      for (const auto& tooth : teeth) {
+        vtkNew<vtkMultiBlockDataSet> block;
+        dentsim::FillTissueBlocks(tooth.tissues, block);
+        output->SetBlock(b, block);
+        std::string name = "tooth " + std::to_string(tooth.tooth);
+        if (tooth.cut_by_field_of_view) name += " (cut by the field of view)";
+        output->GetMetaData(b)->Set(vtkCompositeDataSet::NAME(), name.c_str());
+        tissueSets.push_back(block);
+        ++b;
+      }
+    } else {
+      // On a thread of the core, for ParaView's progress bar and Abort.
+      dentsim::FillTissueBlocks(
+          dentsim::RunJob(this, dentsim::ffi::start_tissues_from_scan(geometry, grey, params, scanFile, thresholds)),
+          output);
+      tissueSets.push_back(output);
+    }
   } catch (const rust::Error& e) {
     vtkMultiBlockDataSet::GetData(outputVector, 0)->Initialize();
     vtkErrorMacro(<< "DentSim: " << e.what());
     return 0;
+  }
+  // Say which grey values were segmented, and in which frame.
+  const std::string source =
+      scanFile.empty()
+          ? std::string("input array '") + (scalars->GetName() ? scalars->GetName() : "") +
+                "' in the image's frame"
+          : "read through dentsim's reader from " + scanFile +
+                " (patient LPS frame, as dentsim segment; the reader's image lacks its orientation, "
+                "origin or sign)";
+  for (vtkMultiBlockDataSet* set : tissueSets) {
+    for (unsigned int b = 0; b < set->GetNumberOfBlocks(); ++b) {
+      vtkDataObject* block = set->GetBlock(b);
+      if (!block) continue;
+      vtkNew<vtkStringArray> note;
+      note->SetName("ScanSource");
+      note->InsertNextValue(source);
+      block->GetFieldData()->AddArray(note);
+    }
   }
   return 1;
 }
@@ -101,4 +193,7 @@ void vtkDentSimTissuesFromScan::PrintSelf(ostream& os, vtkIndent indent) {
   os << indent << "UseSeedPoint: " << this->UseSeedPoint << "\n";
   os << indent << "SeedPoint: " << this->SeedPoint[0] << " " << this->SeedPoint[1] << " "
      << this->SeedPoint[2] << " mm\n";
+  os << indent << "ReadScanFile: " << this->ReadScanFile << "\n";
+  os << indent << "AllTeeth: " << this->AllTeeth << "\n";
+  os << indent << "Thresholds: " << (this->Thresholds ? this->Thresholds : "") << "\n";
 }

@@ -1,7 +1,14 @@
 // One tooth's tissue surfaces from a CBCT image (any vtkImageData with one scalar component,
 // e.g. from ParaView's DICOM, NIfTI or MetaImage readers): grey values are calibrated per scan,
 // the tooth is segmented and each tissue becomes a smooth level set at VoxelSize (mm). Output:
-// one block per tissue, named after it, in the image's world frame.
+// one block per tissue, named after it. When the image comes straight from a reader of a scan
+// file (ParaView's DICOM, NIfTI or MetaImage reader), the file is read again through dentsim's
+// own reader, which keeps the patient frame (DICOM's signed pixels, origin and LPS axes; the
+// NIfTI and MetaImage orientation) that those readers drop: the tissues land where
+// `dentsim segment` puts them, and each block's ScanSource field says which was read. Otherwise
+// the grey values are the selected point array of the image, in the image's world frame.
+// With AllTeeth, every tooth in the scan is its own block ("tooth N", N by size), holding its
+// tissue blocks.
 #pragma once
 
 #include <vtkMultiBlockDataSetAlgorithm.h>
@@ -22,10 +29,16 @@ public:
   vtkGetMacro(UseSeedPoint, bool);
   vtkSetVector3Macro(SeedPoint, double);
   vtkGetVector3Macro(SeedPoint, double);
+  vtkSetMacro(ReadScanFile, bool);
+  vtkGetMacro(ReadScanFile, bool);
+  vtkSetMacro(AllTeeth, bool);
+  vtkGetMacro(AllTeeth, bool);
+  vtkSetStringMacro(Thresholds);
+  vtkGetStringMacro(Thresholds);
 
 protected:
   vtkDentSimTissuesFromScan();
-  ~vtkDentSimTissuesFromScan() override = default;
+  ~vtkDentSimTissuesFromScan() override;
   int FillInputPortInformation(int port, vtkInformation* info) override;
   int RequestUpdateExtent(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
   int RequestData(vtkInformation*, vtkInformationVector**, vtkInformationVector*) override;
@@ -34,6 +47,9 @@ protected:
   int Tooth = 36;
   bool UseSeedPoint = false;
   double SeedPoint[3] = {0.0, 0.0, 0.0};
+  bool ReadScanFile = true;
+  bool AllTeeth = false;
+  char* Thresholds = nullptr;
 
 private:
   vtkDentSimTissuesFromScan(const vtkDentSimTissuesFromScan&) = delete;

@@ -6,7 +6,7 @@
 use std::time::Instant;
 
 use dentsim_cbct::phantom::gaussian_blur;
-use dentsim_cbct::{calibrate, crop, crop_labels, enclosed_volume, segment, tooth_box, Calibration, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
+use dentsim_cbct::{calibrate, crop, crop_labels, enclosed_volume, find_teeth, segment, tooth_box, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
 
 use dentsim_vdb::{DenseVolume, LevelSet};
 use serde::Serialize;
@@ -68,6 +68,10 @@ pub struct ScanReport {
     /// Dentin voxels outside the main dentin body, given to the enamel.
     pub dentin_specks_relabelled: usize,
     pub calibration: Calibration,
+    /// With every tooth segmented ([`TissuesFromScan::run_all`]): this tooth as found in the
+    /// scan, and its place in the list (1 = largest).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub found: Option<(usize, FoundTooth)>,
     pub tissues: Vec<SegmentedTissue>,
     pub seconds: Timings,
 }
@@ -79,6 +83,10 @@ pub struct Timings {
     pub crop: f64,
     pub level_sets: f64,
 }
+
+/// What the number of a tooth means when every tooth is segmented.
+pub const ALL_TEETH_NOTE: &str = "every tooth in the scan, each its own object, numbered by size (1 = largest); \
+                                  the teeth are not identified, so no FDI number is given (fdi 0)";
 
 /// What the FDI number of a segmented tooth means (`{fdi}` is replaced by the number).
 pub const FDI_NOTE: &str = "tooth {fdi} is the user's label (--tooth) for the tooth nearest the seed point; \
@@ -108,17 +116,63 @@ impl TissuesFromScan {
     /// Runs every step; `progress(step, fraction)` follows the work.
     pub fn run(&self, scan: &Volume, table: &TissueTable, progress: &mut dyn FnMut(&str, f64)) -> Result<(TissueModel, ScanReport)> {
         self.validate()?;
-        let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
         let mut seconds = Timings::default();
 
         progress("calibrating grey values", 0.0);
         let clock = Instant::now();
-        let calibration = match &self.thresholds {
-            Some(values) => Calibration::manual(values).map_err(cbct)?,
-            None => calibrate(scan).map_err(cbct)?,
-        };
+        let calibration = self.calibrate(scan)?;
         seconds.calibrate = clock.elapsed().as_secs_f64();
+        self.run_calibrated(scan, table, calibration, seconds, progress)
+    }
 
+    fn calibrate(&self, scan: &Volume) -> Result<Calibration> {
+        let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
+        match &self.thresholds {
+            Some(values) => Calibration::manual(values).map_err(cbct),
+            None => calibrate(scan).map_err(cbct),
+        }
+    }
+
+    /// Every tooth in the scan, each its own object ([`find_teeth`]), calibrated once; the
+    /// point and FDI number are not used (the teeth are numbered by size, not identified).
+    pub fn run_all(&self, scan: &Volume, table: &TissueTable, progress: &mut dyn FnMut(&str, f64)) -> Result<Vec<(TissueModel, ScanReport)>> {
+        self.validate()?;
+        let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
+        progress("calibrating grey values", 0.0);
+        let clock = Instant::now();
+        let calibration = self.calibrate(scan)?;
+        let calibrate_s = clock.elapsed().as_secs_f64();
+        progress("finding the teeth", 0.05);
+        let teeth = find_teeth(scan, &calibration).map_err(cbct)?;
+        if teeth.is_empty() {
+            return Err(invalid(format!("scan {}", scan.source.path), "no tooth (hard tissue with enamel) found"));
+        }
+        let count = teeth.len() as f64;
+        let mut out = Vec::with_capacity(teeth.len());
+        for (i, tooth) in teeth.into_iter().enumerate() {
+            let one = TissuesFromScan { seed_mm: Some(tooth.seed), bounds_mm: Some((tooth.min, tooth.max)), ..self.clone() };
+            let seconds = Timings { calibrate: calibrate_s / count, ..Timings::default() };
+            // Each tooth is segmented in its box grown by ALL_TEETH_MARGIN_MM (room for the
+            // surface refinement and the lesion search), not in the whole scan.
+            let region = index_box_around(scan, tooth.min, tooth.max, ALL_TEETH_MARGIN_MM);
+            let part = crop(scan, &region).map_err(cbct)?;
+            let (mut model, mut report) = one.run_calibrated(&part, table, calibration.clone(), seconds, &mut |step, f| progress(&format!("tooth {}: {step}", i + 1), (i as f64 + f) / count))?;
+            report.scan_dims = scan.dims;
+            for c in 0..3 {
+                report.crop_min[c] += region.min[c];
+                report.crop_max[c] += region.min[c];
+            }
+            model.fdi_tooth = None;
+            report.fdi = 0;
+            report.fdi_note = ALL_TEETH_NOTE.into();
+            report.found = Some((i + 1, tooth));
+            out.push((model, report));
+        }
+        Ok(out)
+    }
+
+    fn run_calibrated(&self, scan: &Volume, table: &TissueTable, calibration: Calibration, mut seconds: Timings, progress: &mut dyn FnMut(&str, f64)) -> Result<(TissueModel, ScanReport)> {
+        let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
         progress("segmenting", 0.1);
         let clock = Instant::now();
         let seed = self.seed_mm.unwrap_or_else(|| centre_of(scan));
@@ -178,6 +232,7 @@ impl TissuesFromScan {
             crop_max: region.max,
             dentin_specks_relabelled: specks,
             calibration,
+            found: None,
             tissues,
             seconds,
         };
@@ -200,12 +255,51 @@ pub fn write_segmentation(model: &mut TissueModel, report: &ScanReport, out: &st
     Ok(folder.join(json_name))
 }
 
+/// Margin (mm) around a found tooth's box that [`TissuesFromScan::run_all`] segments it in.
+const ALL_TEETH_MARGIN_MM: f64 = 4.0;
+
+/// The scan's voxel box holding an LPS box grown by `margin_mm`, clipped to the scan.
+fn index_box_around(scan: &Volume, lo: [f64; 3], hi: [f64; 3], margin_mm: f64) -> dentsim_cbct::IndexBox {
+    let (mut min, mut max) = ([usize::MAX; 3], [0usize; 3]);
+    for corner in 0..8 {
+        let p = [0, 1, 2].map(|c| if corner & (1 << c) == 0 { lo[c] - margin_mm } else { hi[c] + margin_mm });
+        let Some(ijk) = scan.world_to_index(p) else { return dentsim_cbct::IndexBox { min: [0; 3], max: scan.dims } };
+        for c in 0..3 {
+            let v = ijk[c].clamp(0.0, (scan.dims[c] - 1) as f64);
+            min[c] = min[c].min(v.floor() as usize);
+            max[c] = max[c].max(v.ceil() as usize + 1);
+        }
+    }
+    dentsim_cbct::IndexBox { min, max: [0, 1, 2].map(|c| max[c].min(scan.dims[c])) }
+}
+
+/// Writes every tooth of [`TissuesFromScan::run_all`] beside `out`: `<stem>_tooth<N>.vdb` with its
+/// report `<stem>_tooth<N>.vdb.json`, all or none; returns the .vdb paths.
+pub fn write_all_segmentations(teeth: &mut [(TissueModel, ScanReport)], out: &std::path::Path) -> Result<Vec<std::path::PathBuf>> {
+    let stem = out.file_stem().ok_or_else(|| invalid("output", format!("{} is not a file path", out.display())))?.to_string_lossy().into_owned();
+    let folder = out.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(std::path::Path::new("."));
+    let names: Vec<String> = (1..=teeth.len()).map(|n| format!("{stem}_tooth{n}.vdb")).collect();
+    let jsons = teeth.iter().map(|(_, r)| serde_json::to_vec_pretty(r).map_err(|e| invalid("scan report", e.to_string()))).collect::<Result<Vec<_>>>()?;
+    crate::tissues::export::all_or_nothing(folder, |staged| {
+        for (((model, _), name), json) in teeth.iter_mut().zip(&names).zip(&jsons) {
+            model.save(&staged.join(name))?;
+            dentsim_atomic::write(&staged.join(format!("{name}.json")), |w| std::io::Write::write_all(w, json))?;
+        }
+        Ok(())
+    })?;
+    Ok(names.iter().map(|n| folder.join(n)).collect())
+}
+
 /// Builds the tooth's tissues from nested unions so that each grid encloses only its own material
 /// and neighbours share their interface exactly (DESIGN.md "Tissues"):
 /// enamel = tooth ∖ core, dentin = core ∖ pulp ∖ caries, with core = dentin ∪ pulp ∪ caries.
 /// Building a shell directly would not do: OpenVDB's mesh-to-level-set decides inside by flooding
 /// from outside, so a cavity enclosed by a tissue (the pulp in the dentin) would count as inside.
 const UNION_BLUR_VOXELS: f64 = 0.35;
+/// The field placed by grey is smoothed by this much (voxels), and kept this far on each
+/// voxel's side of 0.5.
+const GREY_BLUR_VOXELS: f64 = 0.5;
+const GREY_SIDE: f32 = 0.02;
 /// Φ(0.5 / σ) for σ = 0.35: the blurred indicator half a voxel inside a flat boundary.
 const FLAT_INSIDE: f32 = 0.9234;
 
@@ -242,10 +336,101 @@ impl NestedBuilder<'_> {
         let mut field: Vec<f32> = self.labels.labels.iter().map(|l| f32::from(u8::from(codes.contains(l)))).collect();
         let inside: Vec<bool> = field.iter().map(|&v| v > 0.5).collect();
         gaussian_blur(&mut field, self.scan.dims, [UNION_BLUR_VOXELS; 3]);
-        for (v, inside) in field.iter_mut().zip(inside) {
-            *v = if inside { v.max(FLAT_INSIDE) } else { v.min(1.0 - FLAT_INSIDE) };
+        for (v, inside) in field.iter_mut().zip(&inside) {
+            *v = if *inside { v.max(FLAT_INSIDE) } else { v.min(1.0 - FLAT_INSIDE) };
+        }
+        self.place_by_grey(&mut field, &inside);
+        // The grey's noise would roughen the surface at the scan's voxel scale: smoothed once
+        // more, each voxel kept on its side.
+        gaussian_blur(&mut field, self.scan.dims, [GREY_BLUR_VOXELS; 3]);
+        for (v, inside) in field.iter_mut().zip(&inside) {
+            *v = if *inside { v.max(0.5 + GREY_SIDE) } else { v.min(0.5 - GREY_SIDE) };
         }
         self.level_set(&field, 0.5, true).map(Some)
+    }
+
+    /// Places the surface between two voxels where the scan's grey says, not midway: at a voxel on
+    /// the union's border whose neighbour across it is a hard tissue or the outside (enamel,
+    /// dentin, air, soft tissue, bone: not pulp, caries or metal, whose grey is no two-tissue
+    /// mix), the field is the voxel's fraction of the inside tissue, (grey − g_out) / (g_in −
+    /// g_out), with the two tissues' calibrated grey values (bone beside a root is its ligament's
+    /// soft tissue, as segmentation takes it). The midpoint contour the segmentation decided each
+    /// voxel by then runs through the voxels at sub-voxel positions, and the scan grid's terraces
+    /// go. The field stays on each voxel's side of 0.5, so no voxel changes side and thin walls
+    /// keep their topology.
+    fn place_by_grey(&self, field: &mut [f32], inside: &[bool]) {
+        use rayon::prelude::*;
+        let [nx, ny, nz] = self.scan.dims;
+        let labels = &self.labels.labels;
+        let values = &self.scan.values;
+        let cal = self.calibration;
+        let grey_of = |code: u8| -> Option<f64> {
+            match Label::from_u8(code)? {
+                Label::Enamel | Label::Dentin | Label::Air | Label::SoftTissue => Label::from_u8(code).map(|l| cal.peak(l)),
+                Label::BoneCancellous | Label::BoneCortical => Some(cal.peak(Label::SoftTissue)),
+                _ => None,
+            }
+        };
+        const SIDE: f32 = GREY_SIDE;
+        let updates: Vec<(usize, f32)> = (0..field.len())
+            .into_par_iter()
+            .filter_map(|n| {
+                let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
+                let neighbours = [
+                    (i > 0).then(|| n - 1),
+                    (i + 1 < nx).then(|| n + 1),
+                    (j > 0).then(|| n - nx),
+                    (j + 1 < ny).then(|| n + nx),
+                    (k > 0).then(|| n - nx * ny),
+                    (k + 1 < nz).then(|| n + nx * ny),
+                ];
+                let mut counts = [0u8; 16];
+                for m in neighbours.into_iter().flatten().filter(|&m| inside[m] != inside[n]) {
+                    counts[(labels[m] as usize).min(15)] += 1;
+                }
+                let partner = (0..16).max_by_key(|&c| counts[c]).filter(|&c| counts[c] > 0)? as u8;
+                // Outside the tooth, which tissue is there is read as segmentation reads it: the
+                // median grey of the outside voxels within 2 voxels, snapped to air or soft
+                // tissue (a class label there may be partial volume of the tooth's edge).
+                let outside_grey = |centre: usize| -> Option<f64> {
+                    let (ci, cj, ck) = ((centre % nx) as i64, ((centre / nx) % ny) as i64, (centre / (nx * ny)) as i64);
+                    let mut grey: Vec<f32> = Vec::with_capacity(125);
+                    for dk in -2i64..=2 {
+                        for dj in -2i64..=2 {
+                            for di in -2i64..=2 {
+                                let (x, y, z) = (ci + di, cj + dj, ck + dk);
+                                if x < 0 || y < 0 || z < 0 || x >= nx as i64 || y >= ny as i64 || z >= nz as i64 {
+                                    continue;
+                                }
+                                let m = x as usize + nx * (y as usize + ny * z as usize);
+                                if !inside[m] && labels[m] <= Label::BoneCortical as u8 {
+                                    grey.push(values[m]);
+                                }
+                            }
+                        }
+                    }
+                    if grey.is_empty() {
+                        return None;
+                    }
+                    let h = grey.len() / 2;
+                    let g = f64::from(*grey.select_nth_unstable_by(h, |a, b| a.total_cmp(b)).1);
+                    let (air, soft) = (cal.peak(Label::Air), cal.peak(Label::SoftTissue));
+                    Some(if (g - air).abs() < (g - soft).abs() { air } else { soft })
+                };
+                let outside = |code: u8| code <= Label::BoneCortical as u8;
+                let own = if outside(labels[n]) { outside_grey(n)? } else { grey_of(labels[n])? };
+                let other = if outside(partner) { outside_grey(n)? } else { grey_of(partner)? };
+                let (g_in, g_out) = if inside[n] { (own, other) } else { (other, own) };
+                if (g_in - g_out).abs() < 1e-6 {
+                    return None;
+                }
+                let f = ((f64::from(values[n]) - g_out) / (g_in - g_out)) as f32;
+                Some((n, if inside[n] { f.clamp(0.5 + SIDE, 1.0) } else { f.clamp(0.0, 0.5 - SIDE) }))
+            })
+            .collect();
+        for (n, f) in updates {
+            field[n] = f;
+        }
     }
 
     /// Moves `grid`'s surface along its normals until it encloses the tissue's partial-volume

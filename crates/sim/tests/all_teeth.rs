@@ -1,0 +1,39 @@
+//! Every tooth in the field of view, each its own object: three teeth in contact, in the jaw and
+//! in air, each found once and segmented near its own true tissues.
+use dentsim_cbct::phantom::Medium;
+use dentsim_cbct::{Label, Phantom, PhantomSpec};
+use dentsim_sim::tissues::from_scan::TissuesFromScan;
+use dentsim_sim::tissues::table::TissueTable;
+
+#[test]
+fn every_tooth_is_found_once_and_segmented_as_itself() {
+    for medium in [Medium::Jaw, Medium::Air] {
+        let mut spec = PhantomSpec { tooth: 45, medium, neighbours: true, spacing_mm: 0.3, ..Default::default() };
+        spec.dims = [(22.0 / 0.3) as usize, (44.0 / 0.3) as usize, (29.0 / 0.3) as usize];
+        let phantom = Phantom::new(&spec);
+        let scan = phantom.scan();
+        let all = TissuesFromScan::default().run_all(&scan, &TissueTable::default(), &mut |_, _| {}).unwrap();
+        let mut seen = Vec::new();
+        for (model, report) in &all {
+            let (n, found) = report.found.as_ref().unwrap();
+            assert_eq!(report.fdi, 0, "not identified, so no number");
+            // which phantom tooth holds its seed
+            let fdi = phantom.teeth().into_iter().find(|&f| phantom.tooth_sdf(f, Label::Air, glam::DVec3::from_array(found.seed)).unwrap() < 0.0);
+            let fdi = fdi.unwrap_or_else(|| panic!("{medium:?}: tooth {n} at {:?} lies in no tooth", found.seed));
+            let truth = phantom.tooth_volumes_mm3(fdi);
+            print!("{medium:?} tooth {n} = {fdi}:");
+            for label in [Label::Enamel, Label::Dentin, Label::Pulp] {
+                let ours = model.get(label.name()).map_or(0.0, |t| t.grid.volume());
+                let err = ours / truth[label as usize] - 1.0;
+                print!(" {} {:+.1}%", label.name(), 100.0 * err);
+                // measured at 0.3 mm: enamel ≤ 5.9 % (in the jaw), dentin ≤ 2.0 %, pulp ≤ 21.2 %
+                let tol = if label == Label::Pulp { 0.25 } else { 0.07 };
+                assert!(err.abs() < tol, "{medium:?} tooth {fdi} {}: {ours:.1} vs {:.1}", label.name(), truth[label as usize]);
+            }
+            println!();
+            seen.push(fdi);
+        }
+        seen.sort();
+        assert_eq!(seen, vec![44, 45, 46], "{medium:?}: each tooth once");
+    }
+}

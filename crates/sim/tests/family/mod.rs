@@ -1,0 +1,115 @@
+//! One case of the phantom family through the whole pipeline (calibrate, segment, level sets),
+//! measured against the analytic tooth: volume error, mean surface distance and mean normal
+//! error per tissue. Shared by tests/family_sweep.rs and examples/family_sweep.rs.
+#![allow(dead_code)]
+
+use dentsim_cbct::phantom::FamilyCase;
+use dentsim_cbct::{Label, Phantom};
+use dentsim_sim::tissues::from_scan::TissuesFromScan;
+use dentsim_sim::tissues::table::TissueTable;
+use glam::DVec3;
+
+/// One tissue's figures.
+#[derive(Debug, Clone)]
+pub struct TissueError {
+    pub label: Label,
+    pub volume_error: f64,
+    /// mean |true SDF| at our surface's vertices, mm
+    pub surface_mm: f64,
+    /// mean angle between our triangles' normals and the true SDF's gradient, degrees
+    pub normal_deg: f64,
+}
+
+pub struct CaseResult {
+    pub name: String,
+    pub tissues: Vec<TissueError>,
+    pub confidence: f64,
+    pub seconds: f64,
+}
+
+/// The goals: enamel and dentin volume within 2 %, pulp within 5 %, mean surface
+/// distance ≤ 0.05 mm, mean normal error ≤ 5°.
+pub fn meets_goals(t: &TissueError) -> bool {
+    let volume = if t.label == Label::Pulp { 0.05 } else { 0.02 };
+    t.volume_error.abs() <= volume && t.surface_mm <= 0.05 && t.normal_deg <= 5.0
+}
+
+pub fn run(case: &FamilyCase, voxel_mm: f64) -> Result<CaseResult, String> {
+    let start = std::time::Instant::now();
+    let phantom = Phantom::new(&case.spec);
+    let scan = phantom.scan();
+    let fdi = phantom.tooth();
+    let request = TissuesFromScan { seed_mm: phantom.tooth_seed(fdi), fdi, voxel_size_mm: voxel_mm, ..Default::default() };
+    let (model, report) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| format!("{}: {e}", case.name))?;
+    let truth = phantom.tooth_volumes_mm3(fdi);
+    let mut tissues = Vec::new();
+    for label in [Label::Enamel, Label::Dentin, Label::Pulp] {
+        let tissue = model.get(label.name()).ok_or_else(|| format!("{}: no {}", case.name, label.name()))?;
+        let sdf = |p: DVec3| phantom.tooth_sdf(fdi, label, p).unwrap_or(f64::INFINITY);
+        let mesh = tissue.grid.to_mesh();
+        let step = (mesh.triangles.len() / 20000).max(1);
+        let (mut dist, mut angle, mut n) = (0.0, 0.0, 0usize);
+        for tri in mesh.triangles.iter().step_by(step) {
+            let [a, b, c] = tri.map(|i| mesh.points[i as usize].as_dvec3());
+            let normal = (b - a).cross(c - a);
+            if normal.length() < 1e-12 {
+                continue;
+            }
+            let centre = (a + b + c) / 3.0;
+            let h = 1e-3;
+            let grad = DVec3::new(
+                sdf(centre + DVec3::X * h) - sdf(centre - DVec3::X * h),
+                sdf(centre + DVec3::Y * h) - sdf(centre - DVec3::Y * h),
+                sdf(centre + DVec3::Z * h) - sdf(centre - DVec3::Z * h),
+            );
+            if grad.length() < 1e-9 || !grad.is_finite() {
+                continue;
+            }
+            dist += sdf(centre).abs();
+            angle += normal.normalize().dot(grad.normalize()).clamp(-1.0, 1.0).acos().to_degrees();
+            n += 1;
+        }
+        let n = n.max(1) as f64;
+        tissues.push(TissueError { label, volume_error: tissue.grid.volume() / truth[label as usize] - 1.0, surface_mm: dist / n, normal_deg: angle / n });
+    }
+    Ok(CaseResult { name: case.name.clone(), tissues, confidence: report.calibration.confidence, seconds: start.elapsed().as_secs_f64() })
+}
+
+pub fn print(r: &CaseResult) {
+    print!("{:70} conf {:.2}", r.name, r.confidence);
+    for t in &r.tissues {
+        print!(" | {} {:+.1}% {:.3} mm {:.1}°{}", t.label.name(), 100.0 * t.volume_error, t.surface_mm, t.normal_deg, if meets_goals(t) { "" } else { " ✗" });
+    }
+    println!(" | {:.1} s", r.seconds);
+}
+
+/// The metric's floor: the same measures on the analytic tooth's own level set at `voxel_mm`.
+pub fn floor(case: &FamilyCase, voxel_mm: f64) -> Vec<(Label, f64, f64)> {
+    let phantom = Phantom::new(&case.spec);
+    let fdi = phantom.tooth();
+    let (lo, hi) = phantom.tooth_bounds(fdi).unwrap();
+    let (lo, hi) = (DVec3::from_array(lo) - 1.0, DVec3::from_array(hi) + 1.0);
+    [Label::Enamel, Label::Dentin, Label::Pulp]
+        .into_iter()
+        .map(|label| {
+            let sdf = |p: DVec3| phantom.tooth_sdf(fdi, label, p).unwrap_or(f64::INFINITY);
+            let grid = dentsim_vdb::LevelSet::from_sdf(voxel_mm, 3.0, lo, hi, sdf).unwrap();
+            let mesh = grid.to_mesh();
+            let (mut dist, mut angle, mut n) = (0.0, 0.0, 0usize);
+            for tri in mesh.triangles.iter().step_by((mesh.triangles.len() / 20000).max(1)) {
+                let [a, b, c] = tri.map(|i| mesh.points[i as usize].as_dvec3());
+                let normal = (b - a).cross(c - a);
+                let centre = (a + b + c) / 3.0;
+                let h = 1e-3;
+                let grad = DVec3::new(sdf(centre + DVec3::X * h) - sdf(centre - DVec3::X * h), sdf(centre + DVec3::Y * h) - sdf(centre - DVec3::Y * h), sdf(centre + DVec3::Z * h) - sdf(centre - DVec3::Z * h));
+                if normal.length() < 1e-12 || grad.length() < 1e-9 {
+                    continue;
+                }
+                dist += sdf(centre).abs();
+                angle += normal.normalize().dot(grad.normalize()).clamp(-1.0, 1.0).acos().to_degrees();
+                n += 1;
+            }
+            (label, dist / n.max(1) as f64, angle / n.max(1) as f64)
+        })
+        .collect()
+}
