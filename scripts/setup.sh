@@ -19,7 +19,12 @@ DENTSIM_APT_PACKAGES=(
   paraview paraview-dev python3-paraview libopenmpi-dev libdouble-conversion-dev
   xvfb xauth fonts-dejavu-core
   python3-numpy python3-pydicom python3-nibabel
+  libhidapi-dev libopenigtlink-dev openigtlink-examples python3-pip
 )
+
+# PyPI packages for /usr/bin/python3 (Debian ships none of them): pyigtl is the OpenIGTLink peer
+# the device tests and `dentsim bench`'s igtl_round_trip measure against.
+DENTSIM_PIP_PACKAGES=(pyigtl)
 
 dentsim_log() { printf '[dentsim setup] %s\n' "$*" >&2; }
 
@@ -34,6 +39,17 @@ dentsim_install_packages() {
     [ "$(id -u)" -eq 0 ] || sudo="sudo"
     $sudo apt-get update -qq
     DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  fi
+}
+
+dentsim_install_pip_packages() {
+  local missing=()
+  for p in "${DENTSIM_PIP_PACKAGES[@]}"; do
+    /usr/bin/python3 -c "import $p" 2>/dev/null || missing+=("$p")
+  done
+  if ((${#missing[@]})); then
+    dentsim_log "installing PyPI packages for /usr/bin/python3: ${missing[*]}"
+    /usr/bin/python3 -m pip install -q --break-system-packages "${missing[@]}" >/dev/null
   fi
 }
 
@@ -54,5 +70,6 @@ dentsim_build() {
 }
 
 dentsim_install_packages
+dentsim_install_pip_packages
 dentsim_ensure_cargo
 dentsim_build

@@ -1,11 +1,13 @@
 //! A device named by one line of text, as the `dentsim` command and the plugin take it:
-//! `scripted:PATH.csv` (a tool path) or `hand:KEY=VAL,...` (a simulated hand; vectors as X:Y:Z).
+//! `scripted:PATH.csv` (a tool path), `hand:KEY=VAL,...` (a simulated hand; vectors as X:Y:Z) or
+//! `igtl://HOST:PORT?KEY=VAL&...` (a force-feedback arm over OpenIGTLink).
 //! Parsing happens before a session starts, so every error names the field and what was expected.
 use std::path::PathBuf;
 
 use glam::{DQuat, DVec3};
 
 use crate::error::{Error, Result};
+use crate::igtl::{IgtlDevice, IgtlOptions};
 use crate::{Device, HandParams, ScriptedPath, SimulatedHand};
 
 /// Which device a session uses, parsed but not yet opened.
@@ -13,6 +15,7 @@ use crate::{Device, HandParams, ScriptedPath, SimulatedHand};
 pub enum DeviceSpec {
     Scripted(PathBuf),
     Hand(HandParams),
+    Igtl(IgtlOptions),
 }
 
 /// The simulated hand's keys with their units, for help texts.
@@ -22,7 +25,10 @@ pub const HAND_KEYS: &str = "start=X:Y:Z, target=X:Y:Z (mm), push (N), stiffness
 impl DeviceSpec {
     pub fn parse(text: &str) -> Result<Self> {
         let err = |message: String| Error::Invalid { what: format!("device '{text}'"), message };
-        let (kind, rest) = text.split_once(':').ok_or_else(|| err("expected scripted:PATH.csv or hand:KEY=VAL,...".into()))?;
+        if let Some(rest) = text.trim().strip_prefix("igtl://") {
+            return IgtlOptions::parse(rest).map(DeviceSpec::Igtl).map_err(err);
+        }
+        let (kind, rest) = text.split_once(':').ok_or_else(|| err("expected scripted:PATH.csv, hand:KEY=VAL,... or igtl://HOST:PORT".into()))?;
         match kind.trim() {
             "scripted" if !rest.trim().is_empty() => Ok(DeviceSpec::Scripted(PathBuf::from(rest.trim()))),
             "scripted" => Err(err("no path after 'scripted:'".into())),
@@ -41,7 +47,15 @@ impl DeviceSpec {
                 (Box::new(p), d)
             }
             DeviceSpec::Hand(params) => (Box::new(SimulatedHand::new(*params)), params.duration_s),
+            // Runs until the peer closes or the session's cap: the caller sets the duration.
+            DeviceSpec::Igtl(options) => (Box::new(IgtlDevice::connect(options.clone())?), f64::INFINITY),
         })
+    }
+
+    /// A device a person moves: the session ticks on the wall clock and runs until the device
+    /// ends it (or the session cap), so `open`'s duration is infinite.
+    pub fn is_live(&self) -> bool {
+        matches!(self, DeviceSpec::Igtl(_))
     }
 }
 

@@ -98,6 +98,10 @@ impl LiveSession {
             }
         };
         let (device, duration_s) = spec.open().map_err(|e| invalid("device", e.to_string()))?;
+        // A live device runs until it ends the session (or the session cap), on the wall clock.
+        let live = spec.is_live();
+        let duration_s = if live { crate::limits::DEFAULT_MAX_SESSION_S - 1.0 } else { duration_s };
+        let realtime = req.realtime || live;
         let params = HapticParams { profile, filter, ..HapticParams::default() };
         let params = HapticParams { burr: burr.to_owned(), ..params };
         let props = model.tissues.iter().map(|t| t.props.clone()).collect();
@@ -105,11 +109,11 @@ impl LiveSession {
         let start_mesh_volumes = meshes.iter().map(|m| m.volume()).collect();
         let options = SessionOptions {
             params,
-            realtime: req.realtime,
+            realtime,
             max_duration_s: (duration_s + 1.0).max(1.0),
             log_path: None,
             mesher_hz: Some(req.mesher_hz),
-            raise_priority: req.realtime,
+            raise_priority: realtime,
             ..SessionOptions::default()
         };
         let session = Session::start(model, device, options)?;

@@ -446,15 +446,35 @@ fn haptic_loop<D: Device>(
         let state = match device.poll(t) {
             Ok(s) => s,
             Err(_) => {
+                // Unplugged, stalled or not yet connected: zero force this very tick, the proxy
+                // holds, and the session goes on until the device is back (or ends it).
                 stats.faults += 1;
-                flags |= FLAG_DEVICE_FAULT;
-                match last {
-                    Some(s) => s,
-                    None => {
-                        tick += 1;
-                        continue;
+                stats.missed += u64::from(missed);
+                device.send_force(DVec3::ZERO, DVec3::ZERO);
+                if let Some(s) = last {
+                    let record = TickRecord {
+                        tick,
+                        t_s: t,
+                        wall_s: wall,
+                        pose: s.pose,
+                        buttons: s.buttons,
+                        rpm: s.rpm,
+                        force: DVec3::ZERO,
+                        torque: DVec3::ZERO,
+                        proxy: core.proxy(),
+                        tissue: -1,
+                        flags: flags | FLAG_DEVICE_FAULT,
+                        changed_voxels: 0,
+                    };
+                    if records.push(record).is_err() {
+                        stats.dropped_records += 1;
                     }
                 }
+                tick += 1;
+                if device.finished(t) || t >= options.max_duration_s {
+                    break;
+                }
+                continue;
             }
         };
         last = Some(state);
