@@ -2,6 +2,8 @@
 //! same run, on the same data. Timings are wall-clock medians and 99th percentiles.
 use std::time::Instant;
 
+pub mod igtl;
+
 use dentsim_devices::ScriptedPath;
 use dentsim_vdb::Measure;
 use glam::{DAffine3, DVec3};
@@ -571,5 +573,7 @@ pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<B
     rows.push(assess(model, cfg)?);
     progress("loop_period");
     rows.extend(loop_period(model, cfg.session_seconds)?);
+    progress("igtl_round_trip");
+    rows.extend(igtl::igtl_round_trip(model, (cfg.session_seconds * 1000.0) as usize)?);
     Ok(rows)
 }

@@ -12,7 +12,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "igtlClientSocket.h"
 #include "igtlMessageHeader.h"
@@ -64,6 +66,8 @@ static int server(int argc, char** argv) {
   position->SetPackType(igtl::PositionMessage::ALL);
   igtl::MessageHeader::Pointer header = igtl::MessageHeader::New();
   igtl::SensorMessage::Pointer sensor = igtl::SensorMessage::New();
+  std::vector<std::string> lines;
+  lines.reserve(count);
   auto next = std::chrono::steady_clock::now();
   for (long i = 0; i < count; ++i) {
     double s = count > 1 ? double(i) / double(count - 1) : 1.0;
@@ -90,12 +94,15 @@ static int server(int argc, char** argv) {
     if (!(sensor->Unpack(1) & igtl::MessageHeader::UNPACK_BODY)) return fail("SENSOR body did not unpack (CRC or size)");
     if (sensor->GetLength() != 6) return fail("SENSOR does not have six values");
     double rt = std::chrono::duration<double, std::micro>(got - sent).count();
-    std::printf("%.3f", rt);
-    for (unsigned k = 0; k < 6; ++k) std::printf(" %.9g", sensor->GetValue(k));
-    std::printf("\n");
+    char line[256];
+    int n = std::snprintf(line, sizeof line, "%.3f", rt);
+    for (unsigned k = 0; k < 6; ++k) n += std::snprintf(line + n, sizeof line - n, " %.9g", sensor->GetValue(k));
+    lines.push_back(line);
   }
-  std::fflush(stdout);
   socket->CloseSocket();
+  // Printed after the run: a reader that drains stdout only at the end must not stall the peer.
+  for (const std::string& l : lines) std::printf("%s\n", l.c_str());
+  std::fflush(stdout);
   return 0;
 }
 

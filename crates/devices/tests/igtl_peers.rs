@@ -68,9 +68,9 @@ fn parse_lines(text: &str) -> Vec<[f64; 7]> {
 fn run_reference(kind: &str) {
     let peer = reference_peer();
     let port = free_port();
-    let count = 200;
+    let count = 3000;
     let server = Command::new(&peer)
-        .args(["server", &port.to_string(), &count.to_string(), "3000", "0", "0", "1", "0", "0", "2", kind])
+        .args(["server", &port.to_string(), &count.to_string(), "1000", "0", "0", "1", "0", "0", "2", kind])
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()

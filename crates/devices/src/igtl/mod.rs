@@ -133,6 +133,8 @@ pub struct IgtlCounters {
     /// Messages of other types or other device names skipped.
     pub skipped: AtomicU64,
     pub reconnects: AtomicU64,
+    /// Links dropped for silence longer than `silence` ms (the rest broke or lied).
+    pub silences: AtomicU64,
 }
 
 struct Link {
@@ -140,6 +142,9 @@ struct Link {
     /// The peer closed the connection in order: the session ends.
     closed: AtomicBool,
     stop: AtomicBool,
+    /// Set by the haptic thread's first poll: the I/O thread reads nothing before, so poses sent
+    /// while a session starts wait in the socket instead of being answered with no force at all.
+    ready: AtomicBool,
     /// Bumped on every new connection, so the haptic thread forgets the old link's pose.
     generation: AtomicU64,
     counters: IgtlCounters,
@@ -190,6 +195,7 @@ impl IgtlDevice {
             connected: AtomicBool::new(true),
             closed: AtomicBool::new(false),
             stop: AtomicBool::new(false),
+            ready: AtomicBool::new(false),
             generation: AtomicU64::new(1),
             counters: IgtlCounters::default(),
         });
@@ -198,7 +204,10 @@ impl IgtlDevice {
             let options = options.clone();
             std::thread::Builder::new()
                 .name("dentsim-igtl".into())
-                .spawn(move || io_loop(stream, addr, options, link, pose_tx, force_rx))
+                .spawn(move || {
+                    raise_priority();
+                    io_loop(stream, addr, options, link, pose_tx, force_rx)
+                })
                 .map_err(|e| Error::Invalid { what: what.clone(), message: format!("cannot start its thread: {e}") })?
         };
         Ok(IgtlDevice {
@@ -236,6 +245,25 @@ impl IgtlCountersHandle {
     }
 }
 
+/// The I/O thread sleeps in `read` and answers at once: as a SCHED_FIFO thread (below the
+/// haptic thread's 50, above the logger's 30) where permitted, so a busy machine does not delay
+/// the answer; else a raised normal priority, else as it is.
+fn raise_priority() {
+    use thread_priority::{
+        set_thread_priority_and_policy, thread_native_id, RealtimeThreadSchedulePolicy, ThreadPriority, ThreadPriorityValue,
+        ThreadSchedulePolicy,
+    };
+    let fifo = ThreadSchedulePolicy::Realtime(RealtimeThreadSchedulePolicy::Fifo);
+    if let Ok(v) = ThreadPriorityValue::try_from(40u8) {
+        if set_thread_priority_and_policy(thread_native_id(), ThreadPriority::Crossplatform(v), fifo).is_ok() {
+            return;
+        }
+    }
+    if let Ok(v) = ThreadPriorityValue::try_from(15u8) {
+        let _ = thread_priority::set_current_thread_priority(ThreadPriority::Crossplatform(v));
+    }
+}
+
 fn open_stream(addr: &str) -> std::io::Result<TcpStream> {
     let sock = addr.to_socket_addrs()?.next().ok_or_else(|| std::io::Error::new(ErrorKind::NotFound, "no address"))?;
     let s = TcpStream::connect_timeout(&sock, Duration::from_millis(500))?;
@@ -246,6 +274,9 @@ fn open_stream(addr: &str) -> std::io::Result<TcpStream> {
 
 impl Device for IgtlDevice {
     fn poll(&mut self, t: f64) -> std::result::Result<DeviceState, Fault> {
+        if !self.link.ready.load(Ordering::Relaxed) {
+            self.link.ready.store(true, Ordering::Release);
+        }
         self.new_pose = false;
         while let Ok(m) = self.poses.pop() {
             if m.generation != self.generation {
@@ -361,6 +392,12 @@ fn serve(
     if s.set_read_timeout(Some(READ_SLICE)).is_err() {
         return Ended::Lost;
     }
+    while !link.ready.load(Ordering::Acquire) {
+        if link.stop.load(Ordering::Acquire) || STOP_ALL.load(Ordering::Acquire) {
+            return Ended::Stopped;
+        }
+        std::thread::sleep(Duration::from_millis(1));
+    }
     let silence = Duration::from_secs_f64(options.silence_ms * 1e-3);
     let mut last_byte = Instant::now();
     let mut header = [0u8; HEADER_SIZE];
@@ -386,6 +423,7 @@ fn serve(
                 }
                 Err(e) if matches!(e.kind(), ErrorKind::WouldBlock | ErrorKind::TimedOut | ErrorKind::Interrupted) => {
                     if last_byte.elapsed() > silence {
+                        link.counters.silences.fetch_add(1, Ordering::Relaxed);
                         return Err(Ended::Lost);
                     }
                 }
