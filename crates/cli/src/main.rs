@@ -3,6 +3,7 @@ mod args;
 mod assess;
 mod bench;
 mod demo;
+mod devices;
 mod phantom;
 mod prepare;
 mod progress;
@@ -36,6 +37,8 @@ enum Command {
     Session(session::Args),
     /// Replay a session log bit for bit; write tissues, meshes, forces.csv and forces.png.
     Replay(replay::Args),
+    /// List the SpaceMice and foot pedals plugged in (HID).
+    Devices(devices::Args),
     /// Grade a preparation: removed, over- and under-cut volumes, deviation, dentin over the pulp.
     Assess(assess::Args),
 }
@@ -50,5 +53,6 @@ fn main() -> anyhow::Result<()> {
         Command::Session(args) => session::run(&args),
         Command::Replay(args) => replay::run(&args),
         Command::Assess(args) => assess::run(&args),
+        Command::Devices(args) => devices::run(&args),
     }
 }

@@ -4,6 +4,7 @@
 
 mod error;
 mod hand;
+pub mod hid;
 pub mod igtl;
 pub mod path;
 mod profile;

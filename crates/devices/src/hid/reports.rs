@@ -124,3 +124,47 @@ pub fn key_usage(text: &str) -> Option<u8> {
         _ => t.parse::<u8>().ok().filter(|&u| u >= 4 && t.len() > 1),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    // Recorded reports (hex as hidraw gives them): an older SpaceNavigator (046d:c626) pushed
+    // right and twisted, a SpaceMouse Compact (256f:c635) pushed down, and PCsensor pedals.
+    const OLD_TRANSLATION: [u8; 7] = [0x01, 0x5e, 0x01, 0xf6, 0xff, 0x00, 0x00]; // x=350, y=-10, z=0
+    const OLD_ROTATION: [u8; 7] = [0x02, 0x00, 0x00, 0x00, 0x00, 0xa2, 0xfe]; // rz=-350
+    const OLD_BUTTONS: [u8; 3] = [0x03, 0x01, 0x00];
+    const NEW_AXES: [u8; 13] = [0x01, 0x00, 0x00, 0x00, 0x00, 0x2c, 0x01, 0x05, 0x00, 0x00, 0x00, 0xfb, 0xff]; // z=300, rx=5, rz=-5
+    const PEDAL_DOWN: [u8; 9] = [0x01, 0x00, 0x00, 0x05, 0x00, 0x00, 0x00, 0x00, 0x00];
+    const PEDAL_UP: [u8; 9] = [0x01, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00, 0x00];
+    const PEDAL_NO_ID: [u8; 8] = [0x00, 0x00, 0x05, 0x00, 0x00, 0x00, 0x00, 0x00];
+
+    #[test]
+    fn both_spacemouse_layouts_parse() {
+        let mut s = SpaceMouseRaw::default();
+        assert!(apply_spacemouse_report(&mut s, &OLD_TRANSLATION));
+        assert!(apply_spacemouse_report(&mut s, &OLD_ROTATION));
+        assert!(apply_spacemouse_report(&mut s, &OLD_BUTTONS));
+        assert_eq!(s, SpaceMouseRaw { translation: [350, -10, 0], rotation: [0, 0, -350], buttons: 1 });
+        let mut s = SpaceMouseRaw::default();
+        assert!(apply_spacemouse_report(&mut s, &NEW_AXES));
+        assert_eq!((s.translation, s.rotation), ([0, 0, 300], [5, 0, -5]));
+        assert!(!apply_spacemouse_report(&mut s, &[0x17, 1, 2]));
+        assert!(!apply_spacemouse_report(&mut s, &[0x01, 1]), "a short report is ignored");
+        assert_eq!(spacemouse_name(0x256f, 0xc635), Some("SpaceMouse Compact"));
+        assert_eq!(spacemouse_name(0x256f, 0xc652).is_some(), true);
+        assert_eq!(spacemouse_name(0x256f, 0xc650), None, "CadMouse is not 6-DOF");
+    }
+
+    #[test]
+    fn pedal_reports_and_keys() {
+        assert_eq!(pedal_pressed(&PEDAL_DOWN, 5), Some(true));
+        assert_eq!(pedal_pressed(&PEDAL_UP, 5), Some(false));
+        assert_eq!(pedal_pressed(&PEDAL_NO_ID, 5), Some(true));
+        assert_eq!(pedal_pressed(&PEDAL_DOWN, 6), Some(false));
+        assert_eq!(pedal_pressed(&[0x02, 0x00], 5), None);
+        assert_eq!((key_usage("b"), key_usage("a"), key_usage("1"), key_usage("0"), key_usage("0x05"), key_usage("44")), (Some(5), Some(4), Some(0x1e), Some(0x27), Some(5), Some(44)));
+        assert_eq!(key_usage("bb"), None);
+        assert_eq!(pedal_name(0x1a86, 0xe026).is_some(), true);
+    }
+}
