@@ -15,7 +15,9 @@ pub struct Args {
     /// `scripted:PATH.csv` (t,x,y,z,qw,qx,qy,qz[,rpm][,cut]), `hand:KEY=VAL,...` with keys
     /// start=X:Y:Z, target=X:Y:Z (mm), push (N), stiffness, damping, mass, pedal (0|1), rpm, duration (s),
     /// or `igtl://HOST:PORT?pose=NAME&force=NAME&pedal=1` (an arm bridged over OpenIGTLink; default
-    /// 127.0.0.1:18944; runs in real time until the peer closes or Ctrl-C, then writes the outputs).
+    /// 127.0.0.1:18944; runs in real time until the peer closes or Ctrl-C, then writes the outputs),
+    /// or `spacemouse[:dead=15,speed=10,turn=45,axes=x:-y:-z,workspace=15,start=X:Y:Z]`; append
+    /// `+pedal[:key=b]` for a USB foot pedal as the cut switch. `dentsim devices` lists HID devices.
     #[arg(long, allow_hyphen_values = true)]
     device: String,
     /// Output folder (created if missing).

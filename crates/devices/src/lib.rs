@@ -16,7 +16,7 @@ pub use hand::{SimulatedHand, HandParams};
 pub use profile::DeviceProfile;
 pub use path::{PathLimits, PathSample, PolylineArrays, ToolPath};
 pub use scripted::{ScriptedPath, DEFAULT_RPM};
-pub use spec::{DeviceSpec, HAND_KEYS};
+pub use spec::{DeviceSpec, PedalOptions, SpaceMouseOptions, HAND_KEYS, PEDAL_KEYS, SPACEMOUSE_KEYS};
 
 use glam::{DAffine3, DVec3};
 

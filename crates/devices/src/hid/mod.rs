@@ -2,8 +2,12 @@
 //! foot pedals that present as keyboards (the cut switch). Report layouts are in [`reports`];
 //! the mapping from counts to motion in [`rate`]. Listing uses hidapi over Debian's
 //! libhidapi-dev (hidraw backend).
+mod device;
+pub mod link;
 pub mod rate;
 pub mod reports;
+
+pub use device::{SpaceMouse, WithPedal};
 
 /// One HID device found, with what dentsim makes of it.
 #[derive(Clone, Debug, PartialEq)]
