@@ -59,7 +59,8 @@ mod bridge {
         tissues_path: String,
         /// Voxel size of the phantom (mm) when no file is given.
         phantom_voxel_mm: f64,
-        /// `scripted:PATH.csv` or `hand:KEY=VAL,...`.
+        /// `scripted:PATH.csv`, `hand:KEY=VAL,...`, `spacemouse[:...]` or `igtl://HOST:PORT?...`,
+        /// optionally followed by `+pedal[:key=b]`.
         device: String,
         /// Device profile: touch, omni, desktop, premium15, falcon, omega.
         profile: String,
@@ -70,6 +71,8 @@ mod bridge {
         /// A burr spec as for preparations: catalogue name, ISO number, or
         /// `SHAPE:DIAMETER_MM[:LENGTH_MM]`.
         burr: String,
+        /// Where the session log goes (as `dentsim session`'s session.dslog); empty for none.
+        log_path: String,
     }
 
     /// The latest state of a live session.
@@ -156,6 +159,8 @@ mod bridge {
         fn default_session() -> SessionParams;
         fn start_session(params: &SessionParams) -> Result<Box<HapticSession>>;
         fn poll(self: &mut HapticSession) -> Result<SessionState>;
+        /// Ends the session now (Stop): the log is completed and the final tissues meshed.
+        fn stop(self: &mut HapticSession) -> Result<SessionState>;
         fn tissue_surfaces(self: &HapticSession) -> Result<Vec<TissueSurface>>;
         fn burr_surface(self: &HapticSession) -> Result<TissueSurface>;
     }
@@ -368,6 +373,7 @@ fn default_session() -> SessionParams {
         filter: dentsim_sim::haptics::filter::FilterSpec::DEFAULT_NAME.into(),
         realtime: true,
         burr: dentsim_sim::haptics::tick::DEFAULT_BURR.into(),
+        log_path: String::new(),
     }
 }
 
@@ -384,7 +390,9 @@ pub fn start_session(params: &SessionParams) -> Result<Box<HapticSession>, Strin
         };
         let scripted = params.device.strip_prefix("scripted:").unwrap_or("");
         let files = [("Tissues File", params.tissues_path.as_str()), ("Scripted Path (CSV)", scripted)];
-        let live = LiveSession::start_with_burr(&request, &params.burr).map_err(|e| name_property(e.to_string(), &files))?;
+        let log = (!params.log_path.is_empty()).then(|| std::path::PathBuf::from(&params.log_path));
+        let files = [files[0], files[1], ("Session Log", params.log_path.as_str())];
+        let live = LiveSession::start_logged(&request, &params.burr, log).map_err(|e| name_property(e.to_string(), &files))?;
         Ok(Box::new(HapticSession { live, last: LiveState::default() }))
     })
 }
@@ -393,8 +401,21 @@ impl HapticSession {
     fn poll(&mut self) -> Result<SessionState, String> {
         guarded("haptic session poll", || {
             let s = self.live.poll().map_err(|e| e.to_string())?;
-            self.last = s.clone();
-            Ok(SessionState {
+            Ok(self.state(s))
+        })
+    }
+
+    fn stop(&mut self) -> Result<SessionState, String> {
+        guarded("haptic session stop", || {
+            let s = self.live.stop().map_err(|e| e.to_string())?;
+            Ok(self.state(s))
+        })
+    }
+
+    fn state(&mut self, s: LiveState) -> SessionState {
+        self.last = s.clone();
+        {
+            SessionState {
                 tick: s.tick,
                 time_s: s.t_s,
                 running: s.running,
@@ -403,8 +424,8 @@ impl HapticSession {
                 force_n: s.force.to_array(),
                 contact_tissue: s.tissue.unwrap_or_default(),
                 mesh_generation: s.mesh_generation,
-            })
-        })
+            }
+        }
     }
 
     fn tissue_surfaces(&self) -> Result<Vec<TissueSurface>, String> {

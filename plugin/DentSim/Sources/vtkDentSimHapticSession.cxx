@@ -14,7 +14,11 @@
 #include <vtkPolyData.h>
 #include <vtkSmartPointer.h>
 #include <vtkStringArray.h>
+#include <vtkTable.h>
+#include <vtkUnsignedCharArray.h>
 
+#include <cmath>
+#include <cstdint>
 #include <optional>
 
 #include "vtkDentSimSurfaces.h"
@@ -26,18 +30,27 @@ struct vtkDentSimHapticSession::Internals {
   vtkSmartPointer<vtkMultiBlockDataSet> Tissues;
   uint64_t MeshGeneration = 0;
   bool ShownFinal = false;
+  bool StopRequested = false;
+  // The force over time, one row per update that saw a new tick.
+  vtkSmartPointer<vtkTable> History;
+  uint64_t LastTick = UINT64_MAX;
 };
 
 vtkStandardNewMacro(vtkDentSimHapticSession);
 
 vtkDentSimHapticSession::vtkDentSimHapticSession() : Internal(new Internals) {
   this->SetNumberOfInputPorts(0);
+  this->SetNumberOfOutputPorts(2);
   const auto d = dentsim::ffi::default_session();
   this->PhantomVoxelSize = d.phantom_voxel_mm;
   this->SetProfile(std::string(d.profile).c_str());
   this->SetFilter(std::string(d.filter).c_str());
   this->SetBurr(std::string(d.burr).c_str());
   this->SetHandParameters("start=0:0:5.6,target=0:0:2.5,push=1,pedal=1,duration=10");
+  this->SetSpaceMouseParameters("");
+  this->SetOpenIGTLinkURL("igtl://127.0.0.1:18944");
+  this->SetPedalKey("b");
+  this->SetSessionLog("");
   this->RealTime = d.realtime;
 }
 
@@ -46,6 +59,10 @@ vtkDentSimHapticSession::~vtkDentSimHapticSession() {
   this->SetTissuesFile(nullptr);
   this->SetScriptedPath(nullptr);
   this->SetHandParameters(nullptr);
+  this->SetSpaceMouseParameters(nullptr);
+  this->SetOpenIGTLinkURL(nullptr);
+  this->SetPedalKey(nullptr);
+  this->SetSessionLog(nullptr);
   this->SetProfile(nullptr);
   this->SetFilter(nullptr);
   this->SetBurr(nullptr);
@@ -59,9 +76,56 @@ bool vtkDentSimHapticSession::GetNeedsUpdate() {
   return true;
 }
 
+int vtkDentSimHapticSession::FillOutputPortInformation(int port, vtkInformation* info) {
+  if (port == 1) {
+    info->Set(vtkDataObject::DATA_TYPE_NAME(), "vtkTable");
+    return 1;
+  }
+  return this->Superclass::FillOutputPortInformation(port, info);
+}
+
+vtkMTimeType vtkDentSimHapticSession::GetMTime() {
+  const vtkMTimeType t = this->Superclass::GetMTime();
+  if (this->Internal && this->Internal->Session && !this->Internal->ShownFinal) {
+    // Still running: news may be waiting, so every update polls (pvpython needs no timer).
+    this->Modified();
+    return this->Superclass::GetMTime();
+  }
+  return t;
+}
+
+void vtkDentSimHapticSession::Stop() {
+  if (this->Internal->Session && !this->Internal->ShownFinal) {
+    this->Internal->StopRequested = true;
+    this->Modified();
+  }
+}
+
 namespace {
 
 std::string Str(const char* s) { return s ? s : ""; }
+
+// A constant RGB colour for every point of `pd` (point array `Colour`, shown with Map Scalars off).
+void Paint(vtkPolyData* pd, unsigned char r, unsigned char g, unsigned char b) {
+  vtkNew<vtkUnsignedCharArray> c;
+  c->SetName("Colour");
+  c->SetNumberOfComponents(3);
+  for (vtkIdType i = 0; i < pd->GetNumberOfPoints(); ++i) c->InsertNextTuple3(r, g, b);
+  pd->GetPointData()->AddArray(c);
+}
+
+vtkSmartPointer<vtkTable> NewHistory() {
+  auto t = vtkSmartPointer<vtkTable>::New();
+  for (const char* name : {"Time", "Force", "Fx", "Fy", "Fz"}) {
+    vtkNew<vtkDoubleArray> a;
+    a->SetName(name);
+    t->AddColumn(a);
+  }
+  vtkNew<vtkStringArray> contact;
+  contact->SetName("ContactTissue");
+  t->AddColumn(contact);
+  return t;
+}
 
 void AddField(vtkFieldData* fd, const char* name, double value) {
   vtkNew<vtkDoubleArray> a;
@@ -102,8 +166,16 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
   dentsim::ffi::SessionParams params = dentsim::ffi::default_session();
   params.tissues_path = Str(this->TissuesFile);
   params.phantom_voxel_mm = this->PhantomVoxelSize;
-  params.device = this->DeviceKind == 0 ? "scripted:" + Str(this->ScriptedPath)
-                                        : "hand:" + Str(this->HandParameters);
+  std::string device;
+  switch (this->DeviceKind) {
+    case 0: device = "scripted:" + Str(this->ScriptedPath); break;
+    case 2: device = Str(this->SpaceMouseParameters).empty() ? "spacemouse" : "spacemouse:" + Str(this->SpaceMouseParameters); break;
+    case 3: device = Str(this->OpenIGTLinkURL); break;
+    default: device = "hand:" + Str(this->HandParameters); break;
+  }
+  if (this->FootPedal) device += "+pedal:key=" + Str(this->PedalKey);
+  params.device = device;
+  params.log_path = Str(this->SessionLog);
   params.profile = Str(this->Profile);
   params.filter = Str(this->Filter);
   params.realtime = this->RealTime;
@@ -111,18 +183,24 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
   const std::string signature = std::string(params.tissues_path) + "|" +
     std::to_string(params.phantom_voxel_mm) + "|" + std::string(params.device) + "|" +
     std::string(params.profile) + "|" + std::string(params.filter) + "|" +
-    std::string(params.burr) + "|" + (params.realtime ? "rt" : "batch");
+    std::string(params.burr) + "|" + (params.realtime ? "rt" : "batch") + "|" +
+    std::string(params.log_path);
   try {
     if (!in.Session || in.StartedWith != signature) {
       in.Session.reset();  // stop the old one first
       in.Tissues = nullptr;
       in.MeshGeneration = 0;
       in.ShownFinal = false;
+      in.StopRequested = false;
+      in.History = NewHistory();
+      in.LastTick = UINT64_MAX;
       in.StartedWith = signature;
       in.Session.emplace(dentsim::ffi::start_session(params));
     }
     auto& session = **in.Session;
-    const auto state = session.poll();
+    const bool stop = in.StopRequested;
+    in.StopRequested = false;
+    const auto state = stop ? session.stop() : session.poll();
     if (!in.Tissues || state.mesh_generation != in.MeshGeneration) {
       in.Tissues = vtkSmartPointer<vtkMultiBlockDataSet>::New();
       dentsim::FillTissueBlocks(session.tissue_surfaces(), in.Tissues);
@@ -140,9 +218,11 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
       output->GetMetaData(i)->Set(vtkCompositeDataSet::NAME(),
                                   in.Tissues->GetMetaData(i)->Get(vtkCompositeDataSet::NAME()));
     }
+    if (auto* burrPd = vtkPolyData::SafeDownCast(burrBlock->GetBlock(0))) Paint(burrPd, 140, 150, 170);
     output->SetBlock(n, burrBlock->GetBlock(0));
     output->GetMetaData(n)->Set(vtkCompositeDataSet::NAME(), "burr");
     auto arrow = ForceArrow(state, 0.5);
+    Paint(arrow, 220, 30, 30);
     output->SetBlock(n + 1, arrow);
     output->GetMetaData(n + 1)->Set(vtkCompositeDataSet::NAME(), "force");
 
@@ -156,6 +236,15 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
     AddField(fd, "Time", state.time_s);
     AddField(fd, "Running", state.running ? 1.0 : 0.0);
     in.ShownFinal = !state.running;
+    if (state.tick != in.LastTick) {
+      in.LastTick = state.tick;
+      const double f[3] = {state.force_n[0], state.force_n[1], state.force_n[2]};
+      const double values[5] = {state.time_s, std::sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]), f[0], f[1], f[2]};
+      for (int c = 0; c < 5; ++c) vtkDoubleArray::SafeDownCast(in.History->GetColumn(c))->InsertNextValue(values[c]);
+      vtkStringArray::SafeDownCast(in.History->GetColumn(5))->InsertNextValue(std::string(state.contact_tissue));
+    }
+    auto* history = vtkTable::GetData(outputVector, 1);
+    history->ShallowCopy(in.History);
   } catch (const rust::Error& e) {
     in.Session.reset();
     in.ShownFinal = true;

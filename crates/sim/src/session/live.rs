@@ -84,6 +84,12 @@ impl LiveSession {
     /// Like [`start`](Self::start), cutting with `burr` (a spec as `dentsim prepare` takes it,
     /// [`Burr::parse`]).
     pub fn start_with_burr(req: &LiveRequest, burr: &str) -> Result<Self> {
+        Self::start_logged(req, burr, None)
+    }
+
+    /// Like [`start_with_burr`](Self::start_with_burr), writing the session log to `log` (as
+    /// `dentsim session` does; a bad path fails here, before any tick).
+    pub fn start_logged(req: &LiveRequest, burr: &str, log: Option<PathBuf>) -> Result<Self> {
         // The burr first: a bad spec is reported before any tissue is built.
         let burr_mesh = Burr::parse(burr)?.head_surface()?;
         let profile = DeviceProfile::named(&req.profile).map_err(|e| invalid("profile", e.to_string()))?;
@@ -111,7 +117,7 @@ impl LiveSession {
             params,
             realtime,
             max_duration_s: (duration_s + 1.0).max(1.0),
-            log_path: None,
+            log_path: log,
             mesher_hz: Some(req.mesher_hz),
             raise_priority: realtime,
             ..SessionOptions::default()
@@ -150,18 +156,36 @@ impl LiveSession {
                     }
                 }
             } else {
-                let outcome = self.session.take().expect("checked above").stop()?;
-                // The logger has drained every record by now: its last is the session's last tick.
-                if outcome.last_record.is_some() {
-                    self.last = outcome.last_record;
-                }
-                self.meshes = outcome.model.tissues.iter().map(|t| surface(&t.grid).map(Arc::new)).collect::<Result<Vec<_>>>()?;
-                self.removed = Some(outcome.removed_mm3.iter().map(|(_, v)| *v).collect());
-                self.generation += 1;
+                self.finish()?;
             }
         }
+        Ok(self.state())
+    }
+
+    /// Ends the session now (the clinician's Stop): the threads stop, the log is complete and
+    /// the final tissues are meshed, as when a device finishes. Nothing happens once it ended.
+    pub fn stop(&mut self) -> Result<LiveState> {
+        if self.session.is_some() {
+            self.finish()?;
+        }
+        Ok(self.state())
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        let outcome = self.session.take().expect("checked by the callers").stop()?;
+        // The logger has drained every record by now: its last is the session's last tick.
+        if outcome.last_record.is_some() {
+            self.last = outcome.last_record;
+        }
+        self.meshes = outcome.model.tissues.iter().map(|t| surface(&t.grid).map(Arc::new)).collect::<Result<Vec<_>>>()?;
+        self.removed = Some(outcome.removed_mm3.iter().map(|(_, v)| *v).collect());
+        self.generation += 1;
+        Ok(())
+    }
+
+    fn state(&self) -> LiveState {
         let r = self.last.unwrap_or_default();
-        Ok(LiveState {
+        LiveState {
             tick: r.tick,
             t_s: r.t_s,
             pose: r.pose,
@@ -170,7 +194,7 @@ impl LiveSession {
             tissue: usize::try_from(r.tissue).ok().and_then(|i| self.props.get(i)).map(|p| p.name.clone()),
             running: self.session.is_some(),
             mesh_generation: self.generation,
-        })
+        }
     }
 
     pub fn tissues(&self) -> &[TissueProps] {

@@ -1,0 +1,89 @@
+"""The Dental Haptic Session as a clinician meets it: Apply with the defaults works (the
+simulated hand on the built-in phantom), the session streams on plain UpdatePipeline() calls,
+the burr and force arrow carry their own colours, the force over time is a table the Line Chart
+view shows, Stop ends the session and the log is written; the device list offers the SpaceMouse
+and OpenIGTLink, whose absence is reported by name."""
+import os
+import time
+
+from paraview import servermanager, simple
+from vtkmodules.vtkCommonCore import vtkOutputWindow, vtkStringOutputWindow
+
+from dentsim_testing import check, parse_args
+
+args = parse_args()
+simple.LoadPlugin(args.plugin, ns=globals())
+
+log = os.path.join(args.temp, "clinician_session.dslog")
+if os.path.exists(log):
+    os.remove(log)
+
+# Every property at its default, as after pressing Apply; only the log is asked for.
+session = DentalHapticSession(SessionLog=log)
+check(session.Device == "Simulated hand", "default device: %s" % session.Device)
+
+
+def blocks(data):
+    names = [data.GetMetaData(i).Get(data.NAME()) for i in range(data.GetNumberOfBlocks())]
+    return dict(zip(names, (data.GetBlock(i) for i in range(data.GetNumberOfBlocks()))))
+
+
+# Streams with nothing but UpdatePipeline(): each call shows a later tick while it runs.
+ticks = []
+for _ in range(300):
+    session.UpdatePipeline()
+    data = servermanager.Fetch(session)
+    ticks.append(int(data.GetFieldData().GetArray("Tick").GetValue(0)))
+    if len(set(ticks)) >= 4 and ticks[-1] > 1500:
+        break
+    time.sleep(0.05)
+print("ticks seen on plain updates:", sorted(set(ticks))[:6], "...", ticks[-1])
+check(len(set(ticks)) >= 4 and ticks == sorted(ticks), "the session streamed: %s" % ticks[-10:])
+
+b = blocks(data)
+check(set(["enamel", "dentin", "pulp", "burr", "force"]) <= set(b), "blocks: %s" % list(b))
+burr_colour = b["burr"].GetPointData().GetArray("Colour").GetTuple3(0)
+force_colour = b["force"].GetPointData().GetArray("Colour").GetTuple3(0)
+check(burr_colour == (140.0, 150.0, 170.0) and force_colour == (220.0, 30.0, 30.0),
+      "own colours: burr %s, force %s" % (burr_colour, force_colour))
+check(b["enamel"].GetFieldData().GetArray("RemovedVolume") is not None, "removed volume per tissue")
+
+# The force over time: output port 1, one row per update that saw a new tick.
+history = servermanager.Fetch(session, idx=1)
+rows = history.GetNumberOfRows()
+times = [history.GetColumnByName("Time").GetValue(i) for i in range(rows)]
+forces = [history.GetColumnByName("Force").GetValue(i) for i in range(rows)]
+print("force history: %d rows, t %.3f..%.3f s, max %.3f N" % (rows, times[0], times[-1], max(forces)))
+check(rows >= 4 and times == sorted(times) and times[-1] > times[0], "history rows: %d" % rows)
+check(max(forces) > 0.1, "the hand pressed on the tooth: max %.3f N" % max(forces))
+chart = simple.CreateView("XYChartView")
+line = simple.Show(simple.OutputPort(session, 1), chart)
+line.UseIndexForXAxis = 0
+line.XArrayName = "Time"
+line.SeriesVisibility = ["Force"]
+simple.Render(chart)
+
+# Stop: the session ends now, the final tissues are shown and the log is complete.
+session.SMProxy.InvokeCommand("Stop")
+session.UpdatePipeline()
+data = servermanager.Fetch(session)
+check(data.GetFieldData().GetArray("Running").GetValue(0) == 0.0, "stopped")
+stopped_at = int(data.GetFieldData().GetArray("Tick").GetValue(0))
+check(stopped_at < 10000, "stopped before the hand's 10 s: tick %d" % stopped_at)
+check(os.path.getsize(log) > 1000, "log written: %d bytes" % os.path.getsize(log))
+simple.Delete(session)
+
+# The device list: a SpaceMouse or an OpenIGTLink bridge that is not there is reported by name.
+messages = vtkStringOutputWindow()
+original = vtkOutputWindow.GetInstance()
+vtkOutputWindow.SetInstance(messages)
+mouse = DentalHapticSession(PhantomVoxelSizemm=0.1, Device="SpaceMouse")
+mouse.UpdatePipeline()
+arm = DentalHapticSession(PhantomVoxelSizemm=0.1, Device="OpenIGTLink",
+                          OpenIGTLinkURL="igtl://127.0.0.1:9?connect=100")
+arm.UpdatePipeline()
+vtkOutputWindow.SetInstance(original)
+text = messages.GetOutput()
+check("no SpaceMouse plugged in" in text, "SpaceMouse absence reported: %r" % text)
+check("127.0.0.1:9" in text and "cannot connect" in text, "OpenIGTLink absence reported: %r" % text)
+print("PASSED test_haptic_session_clinician")
