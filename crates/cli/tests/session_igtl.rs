@@ -50,7 +50,7 @@ fn a_reference_library_arm_cuts_the_phantom_and_gets_forces_back() {
         .arg("session")
         .arg("--tissues")
         .arg(&start)
-        .args(["--device", &format!("igtl://127.0.0.1:{port}?pose=Stylus&pedal=1")])
+        .args(["--device", &format!("igtl://127.0.0.1:{port}?pose=Stylus&pedal=1+reg:offset=0:0:0")])
         .arg("--out")
         .arg(&out)
         .output()

@@ -8,6 +8,7 @@ pub mod hid;
 pub mod igtl;
 pub mod path;
 mod profile;
+pub mod registration;
 mod scripted;
 mod spec;
 

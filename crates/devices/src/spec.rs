@@ -14,6 +14,7 @@ use crate::hid::rate::{parse_axes, RateMap};
 use crate::hid::reports::{key_usage, pedal_name, spacemouse_name};
 use crate::hid::{SpaceMouse, WithPedal};
 use crate::igtl::{IgtlDevice, IgtlOptions};
+use crate::registration::{Registered, Registration};
 use crate::{Device, HandParams, ScriptedPath, SimulatedHand};
 
 /// Which device a session uses, parsed but not yet opened.
@@ -25,6 +26,8 @@ pub enum DeviceSpec {
     SpaceMouse(SpaceMouseOptions),
     /// A pose device with a foot pedal as its cut switch.
     WithPedal(Box<DeviceSpec>, PedalOptions),
+    /// A live device placed on the scan by an explicit registration.
+    Registered(Box<DeviceSpec>, Registration),
 }
 
 /// A SpaceMouse's settings: the rate map, where the tool starts (mm), which device.
@@ -55,6 +58,21 @@ pub const HAND_KEYS: &str = "start=X:Y:Z, target=X:Y:Z (mm), push (N), stiffness
 impl DeviceSpec {
     pub fn parse(text: &str) -> Result<Self> {
         let err = |message: String| Error::Invalid { what: format!("device '{text}'"), message };
+        // The suffix written last applies outermost: `DEVICE+pedal:...+reg:...` or the reverse.
+        let reg_last = text.rfind("+reg").is_some_and(|r| text.rfind("+pedal").is_none_or(|p| r > p));
+        if let Some((base, reg)) = text.rsplit_once("+reg").filter(|_| reg_last) {
+            let reg = match reg.strip_prefix(':') {
+                Some(rest) => Registration::parse(rest),
+                None if reg.trim().is_empty() => Ok(Registration::default()),
+                None => Err(format!("'+reg{reg}': expected +reg:KEY=VAL,...")),
+            }
+            .map_err(err)?;
+            let inner = DeviceSpec::parse(base)?;
+            if !inner.is_live() {
+                return Err(err("+reg places a live device (igtl://, spacemouse) on the scan; scripted paths and the hand are in scan mm already".into()));
+            }
+            return Ok(DeviceSpec::Registered(Box::new(inner), reg));
+        }
         if let Some((base, pedal)) = text.rsplit_once("+pedal") {
             let pedal = match pedal.strip_prefix(':') {
                 Some(rest) => parse_pedal(rest),
@@ -85,9 +103,31 @@ impl DeviceSpec {
     }
 
     /// Opens the device (reads the tool path); errors name the file, row and column. Also
-    /// returns how long it will run (s), for progress bars.
+    /// returns how long it will run (s), for progress bars. A live device's workspace is
+    /// centred on the scan origin: sessions use [`DeviceSpec::open_on`] with the tooth's centre.
     pub fn open(&self) -> Result<(Box<dyn Device>, f64)> {
+        self.open_on(DVec3::ZERO)
+    }
+
+    /// Opens the device with a live device's workspace centred on `tooth_centre` (scan mm)
+    /// unless its registration gives an offset (see [`Registration`]).
+    pub fn open_on(&self, tooth_centre: DVec3) -> Result<(Box<dyn Device>, f64)> {
         Ok(match self {
+            DeviceSpec::Registered(inner, reg) => {
+                let (device, duration) = inner.open_raw()?;
+                (Box::new(Registered::new(device, reg, tooth_centre)), duration)
+            }
+            live if live.is_live() => {
+                let (device, duration) = live.open_raw()?;
+                (Box::new(Registered::new(device, &Registration::default(), tooth_centre)), duration)
+            }
+            other => other.open_raw()?,
+        })
+    }
+
+    fn open_raw(&self) -> Result<(Box<dyn Device>, f64)> {
+        Ok(match self {
+            DeviceSpec::Registered(inner, _) => inner.open_raw()?,
             DeviceSpec::Scripted(path) => {
                 let p = ScriptedPath::read(path)?;
                 let d = p.duration();
@@ -109,7 +149,7 @@ impl DeviceSpec {
                 (Box::new(SpaceMouse::new(link, o.map, o.start, "SpaceMouse")), f64::INFINITY)
             }
             DeviceSpec::WithPedal(inner, p) => {
-                let (device, duration) = inner.open()?;
+                let (device, duration) = inner.open_raw()?;
                 let wanted = p.device;
                 let opener = HidapiOpener::new(move |v, pr| match wanted {
                     Some(id) => (v, pr) == id,
@@ -129,7 +169,7 @@ impl DeviceSpec {
     pub fn is_live(&self) -> bool {
         match self {
             DeviceSpec::Igtl(_) | DeviceSpec::SpaceMouse(_) => true,
-            DeviceSpec::WithPedal(inner, _) => inner.is_live(),
+            DeviceSpec::WithPedal(inner, _) | DeviceSpec::Registered(inner, _) => inner.is_live(),
             _ => false,
         }
     }

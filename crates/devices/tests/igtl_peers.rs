@@ -263,3 +263,38 @@ fn a_url_opens_and_an_absent_peer_is_named() {
     assert!(e.contains(&format!("127.0.0.1:{port}")) && e.contains("cannot connect"), "{e}");
     assert!(DeviceSpec::parse("igtl://").unwrap().is_live());
 }
+
+#[test]
+fn a_live_device_is_centred_on_the_tooth_unless_registered_otherwise() {
+    let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    let centre = DVec3::new(1.0, 2.0, 6.0);
+    for (suffix, want) in [("", centre), ("+reg:offset=0:0:0,scale=0.5", DVec3::new(0.0, 0.0, 0.75)), ("+pedal:key=c+reg:offset=0:0:0", DVec3::new(0.0, 0.0, 1.5))] {
+        let spec = DeviceSpec::parse(&format!("igtl://127.0.0.1:{port}{suffix}")).unwrap();
+        if suffix.contains("pedal") {
+            // No pedal here: the spec parses in either order, and opening says what is missing.
+            let e = spec.open_on(centre).err().unwrap().to_string();
+            assert!(e.contains("foot pedal"), "{e}");
+            let DeviceSpec::Registered(inner, _) = spec else { panic!("registration outermost") };
+            assert!(matches!(*inner, DeviceSpec::WithPedal(..)));
+            continue;
+        }
+        let (mut dev, _) = spec.open_on(centre).unwrap();
+        let (mut s, _) = listener.accept().unwrap();
+        // The first poll (a fault: no pose yet) lets the I/O thread start reading.
+        assert!(dev.poll(0.0).is_err());
+        s.write_all(&transform(1.5)).unwrap();
+        let _ = read_message(&mut s);
+        let start = Instant::now();
+        let got = loop {
+            if let Ok(st) = dev.poll(0.0) {
+                break st.pose.translation;
+            }
+            assert!(start.elapsed() < Duration::from_secs(30));
+            std::thread::sleep(Duration::from_millis(1));
+        };
+        let want = if suffix.is_empty() { centre + DVec3::new(0.0, 0.0, 1.5) } else { want };
+        assert!((got - want).length() < 1e-9, "{suffix}: {got} != {want}");
+    }
+    assert!(DeviceSpec::parse("hand:duration=1+reg:scale=2").unwrap_err().to_string().contains("+reg places a live device"));
+}

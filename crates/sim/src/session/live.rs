@@ -23,6 +23,25 @@ use crate::tissues::model::TissueModel;
 use crate::tissues::surface::{surface, SurfaceFrame};
 use crate::tissues::table::{TissueProps, TissueTable};
 
+/// Where a live device's workspace is centred unless its registration says otherwise: 1 mm
+/// above the top of the tissues, over the middle of their bounding box (scan mm), so the
+/// device's neutral position holds the burr just above the crown.
+pub fn workspace_centre(model: &TissueModel) -> DVec3 {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for t in &model.tissues {
+        if let Some(b) = t.grid.index_bbox() {
+            lo = lo.min(t.grid.index_to_world(b.min));
+            hi = hi.max(t.grid.index_to_world(b.max));
+        }
+    }
+    if !lo.is_finite() || !hi.is_finite() {
+        return DVec3::ZERO;
+    }
+    let mid = (lo + hi) * 0.5;
+    DVec3::new(mid.x, mid.y, hi.z + 1.0)
+}
+
 /// What to start.
 #[derive(Clone, Debug)]
 pub struct LiveRequest {
@@ -103,7 +122,7 @@ impl LiveSession {
                 CapsuleTooth::default().build(req.phantom_voxel_mm, &table)?
             }
         };
-        let (device, duration_s) = spec.open().map_err(|e| invalid("device", e.to_string()))?;
+        let (device, duration_s) = spec.open_on(workspace_centre(&model)).map_err(|e| invalid("device", e.to_string()))?;
         // A live device runs until it ends the session (or the session cap), on the wall clock.
         let live = spec.is_live();
         let duration_s = if live { crate::limits::DEFAULT_MAX_SESSION_S - 1.0 } else { duration_s };

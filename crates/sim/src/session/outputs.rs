@@ -159,7 +159,7 @@ pub fn run_session_to_dir_with(req: &SessionRequest, limits: &Limits, progress: 
     let filter = FilterSpec::named(&req.filter).map_err(|m| invalid("filter", m))?;
     let spec = DeviceSpec::parse(&req.device).map_err(|e| invalid("device", e.to_string()))?;
     let model = load_tissues(&req.tissues)?;
-    let (device, duration_s) = spec.open().map_err(|e| invalid("device", e.to_string()))?;
+    let (device, duration_s) = spec.open_on(crate::session::live::workspace_centre(&model)).map_err(|e| invalid("device", e.to_string()))?;
     // A live device runs until it ends the session, within the cap, on the wall clock.
     let live = spec.is_live();
     let duration_s = if live { limits.max_session_s } else { duration_s };
