@@ -1,7 +1,7 @@
 """The Dental Haptic Session as a clinician meets it: Apply with the defaults works (the
 simulated hand on the built-in phantom), the session streams on plain UpdatePipeline() calls,
 the burr and force arrow carry their own colours, the force over time is a table the Line Chart
-view shows, Stop ends the session and the log is written; the device list offers the SpaceMouse
+view shows, Pause holds it, Stop ends the session and the log is written; the device list offers the SpaceMouse
 and OpenIGTLink, whose absence is reported by name."""
 import os
 import time
@@ -62,6 +62,25 @@ line.UseIndexForXAxis = 0
 line.XArrayName = "Time"
 line.SeriesVisibility = ["Force"]
 simple.Render(chart)
+
+# Pause: the picture holds (nothing is logged) while the session's clock goes on; then resume.
+session.Pause = 1
+session.UpdatePipeline()
+time.sleep(0.05)
+session.UpdatePipeline()
+held = int(servermanager.Fetch(session).GetFieldData().GetArray("Tick").GetValue(0))
+time.sleep(0.3)
+session.UpdatePipeline()
+still = int(servermanager.Fetch(session).GetFieldData().GetArray("Tick").GetValue(0))
+check(still == held, "paused: tick %d then %d" % (held, still))
+session.Pause = 0
+for _ in range(100):
+    time.sleep(0.05)
+    session.UpdatePipeline()
+    resumed = int(servermanager.Fetch(session).GetFieldData().GetArray("Tick").GetValue(0))
+    if resumed > held:
+        break
+check(resumed > held + 200, "resumed past the pause: tick %d after %d" % (resumed, held))
 
 # Stop: the session ends now, the final tissues are shown and the log is complete.
 session.SMProxy.InvokeCommand("Stop")

@@ -161,6 +161,8 @@ mod bridge {
         fn poll(self: &mut HapticSession) -> Result<SessionState>;
         /// Ends the session now (Stop): the log is completed and the final tissues meshed.
         fn stop(self: &mut HapticSession) -> Result<SessionState>;
+        /// Pauses (zero force, nothing cut or logged) or resumes the session.
+        fn set_paused(self: &mut HapticSession, paused: bool);
         fn tissue_surfaces(self: &HapticSession) -> Result<Vec<TissueSurface>>;
         fn burr_surface(self: &HapticSession) -> Result<TissueSurface>;
     }
@@ -410,6 +412,10 @@ impl HapticSession {
             let s = self.live.stop().map_err(|e| e.to_string())?;
             Ok(self.state(s))
         })
+    }
+
+    fn set_paused(&mut self, paused: bool) {
+        self.live.set_paused(paused);
     }
 
     fn state(&mut self, s: LiveState) -> SessionState {

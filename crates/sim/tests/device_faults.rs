@@ -67,3 +67,38 @@ fn a_fault_sends_zero_force_that_tick_and_the_session_goes_on() {
     assert!(at(0.95).force.length() > 0.5, "pressing again after: {}", at(0.95).force);
     assert!(log.records.last().unwrap().t_s > 1.4, "the session went on to the hand's end");
 }
+
+#[test]
+fn a_paused_session_renders_no_force_and_logs_nothing_then_resumes() {
+    use dentsim_sim::session::threads::Session;
+    let dir = tempfile::tempdir().unwrap();
+    let model = CapsuleTooth::default().build(0.08, &TissueTable::default()).unwrap();
+    let hand = SimulatedHand::new(HandParams { start: DVec3::new(0.0, 0.0, 5.3), target: DVec3::new(0.0, 0.0, 3.0), duration_s: 1.0, ..Default::default() });
+    let (nonzero, sends) = (Arc::new(AtomicU64::new(0)), Arc::new(AtomicU64::new(0)));
+    // Never faults: counts nothing; the pause is what is tested.
+    let dev = Flaky { hand, from_s: -1.0, to_s: -1.0, faulted: false, nonzero_in_fault: nonzero, sends_in_fault: sends };
+    let log = dir.path().join("p.dslog");
+    let options = SessionOptions { realtime: true, log_path: Some(log.clone()), mesher_hz: None, raise_priority: false, ..Default::default() };
+    let session = Session::start(model, dev, options).unwrap();
+    // Pressing on the enamel first, then paused mid-session.
+    while session.latest().is_none_or(|r| r.force.length() < 0.1) {
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    session.set_paused(true);
+    assert!(session.is_paused());
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    session.set_paused(false);
+    while session.is_running() {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let out = session.stop().unwrap();
+    let log = SessionLog::read(&log).unwrap();
+    let skipped = out.ticks - log.records.len() as u64;
+    println!("{} ticks, {} logged, {} paused", out.ticks, log.records.len(), skipped);
+    assert!(skipped > 0, "the paused ticks are not logged");
+    assert!(log.records.windows(2).all(|w| w[1].tick > w[0].tick));
+    // The gap is the pause; after it the session renders force again.
+    let gap = log.records.windows(2).position(|w| w[1].tick > w[0].tick + 1).expect("a gap where the pause was");
+    let after = log.records[gap + 1..].iter().map(|r| r.force.length()).fold(0.0, f64::max);
+    assert!(after > 0.1, "pressing again after the pause: max {after} N");
+}

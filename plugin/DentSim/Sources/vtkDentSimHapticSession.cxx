@@ -200,6 +200,7 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
     auto& session = **in.Session;
     const bool stop = in.StopRequested;
     in.StopRequested = false;
+    session.set_paused(this->Paused);
     const auto state = stop ? session.stop() : session.poll();
     if (!in.Tissues || state.mesh_generation != in.MeshGeneration) {
       in.Tissues = vtkSmartPointer<vtkMultiBlockDataSet>::New();

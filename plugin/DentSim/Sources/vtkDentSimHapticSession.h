@@ -60,6 +60,9 @@ public:
   bool GetNeedsUpdate();
   // Ends the session now: the log is completed and the final tissues shown.
   void Stop();
+  // Paused: zero force, nothing cut or logged, the picture holds; the session is not restarted.
+  vtkSetMacro(Paused, bool);
+  vtkGetMacro(Paused, bool);
   // While a session runs, the pipeline sees this source as modified at every update, so each
   // UpdatePipeline() shows the latest state.
   vtkMTimeType GetMTime() override;
@@ -84,6 +87,7 @@ protected:
   char* Filter = nullptr;
   char* Burr = nullptr;
   bool RealTime = true;
+  bool Paused = false;
 
 private:
   vtkDentSimHapticSession(const vtkDentSimHapticSession&) = delete;

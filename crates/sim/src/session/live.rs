@@ -190,6 +190,13 @@ impl LiveSession {
         Ok(self.state())
     }
 
+    /// Pauses or resumes a running session (see [`Session::set_paused`]); nothing once it ended.
+    pub fn set_paused(&mut self, paused: bool) {
+        if let Some(s) = &self.session {
+            s.set_paused(paused);
+        }
+    }
+
     fn finish(&mut self) -> Result<()> {
         let outcome = self.session.take().expect("checked by the callers").stop()?;
         // The logger has drained every record by now: its last is the session's last tick.

@@ -129,6 +129,8 @@ struct Recut {
 
 struct Shared {
     stop: AtomicBool,
+    /// Paused by the user: zero force, nothing cut or logged, the clock goes on.
+    paused: AtomicBool,
     haptic_done: AtomicBool,
     latest: Mutex<Option<TickRecord>>,
     frames: Mutex<Vec<Option<Arc<SurfaceFrame>>>>,
@@ -189,6 +191,7 @@ impl Session {
         let names: Vec<String> = model.tissues.iter().map(|t| t.props.name.clone()).collect();
         let shared = Arc::new(Shared {
             stop: AtomicBool::new(false),
+            paused: AtomicBool::new(false),
             haptic_done: AtomicBool::new(false),
             latest: Mutex::new(None),
             frames: Mutex::new(vec![None; names.len()]),
@@ -301,6 +304,16 @@ impl Session {
 
     pub fn tissue_names(&self) -> &[String] {
         &self.names
+    }
+
+    /// Pauses or resumes the session: while paused each tick still reads the device but renders
+    /// zero force, cuts nothing and logs nothing (the log skips those ticks); the proxy holds.
+    pub fn set_paused(&self, paused: bool) {
+        self.shared.paused.store(paused, Ordering::Release);
+    }
+
+    pub fn is_paused(&self) -> bool {
+        self.shared.paused.load(Ordering::Acquire)
     }
 
     /// True while the haptic thread runs (a scripted device ends it by finishing).
@@ -443,6 +456,16 @@ fn haptic_loop<D: Device>(
         let wall = start.elapsed().as_secs_f64();
         let missed = options.realtime && wall - t > 0.5 * period;
         let mut flags = if missed { FLAG_MISSED } else { 0 };
+        if shared.paused.load(Ordering::Acquire) {
+            // The device is still read (its queues drained) but renders nothing.
+            let _ = device.poll(t);
+            device.send_force(DVec3::ZERO, DVec3::ZERO);
+            tick += 1;
+            if device.finished(t) || t >= options.max_duration_s {
+                break;
+            }
+            continue;
+        }
         let state = match device.poll(t) {
             Ok(s) => s,
             Err(_) => {
