@@ -105,4 +105,53 @@ vtkOutputWindow.SetInstance(original)
 text = messages.GetOutput()
 check("no SpaceMouse plugged in" in text, "SpaceMouse absence reported: %r" % text)
 check("127.0.0.1:9" in text and "cannot connect" in text, "OpenIGTLink absence reported: %r" % text)
+
+# A live device shows where its workspace sits on the scan: a pyigtl bridge (PyPI) sends the
+# stylus at the device origin, which the default registration puts 1 mm above the tooth's top.
+import socket
+import threading
+
+import numpy as np
+import pyigtl
+
+probe = socket.socket()
+probe.bind(("127.0.0.1", 0))
+port = probe.getsockname()[1]
+probe.close()
+bridge = pyigtl.OpenIGTLinkServer(port=port, local_server=True)
+sending = True
+
+
+def send_poses():
+    while sending:
+        if bridge.is_connected():
+            bridge.send_message(pyigtl.TransformMessage(np.eye(4), device_name="Stylus"), wait=True)
+        time.sleep(0.01)
+
+
+threading.Thread(target=send_poses, daemon=True).start()
+arm = DentalHapticSession(PhantomVoxelSizemm=0.1, Device="OpenIGTLink",
+                          OpenIGTLinkURL="igtl://127.0.0.1:%d?pose=Stylus" % port)
+for _ in range(200):
+    arm.UpdatePipeline()
+    b = blocks(servermanager.Fetch(arm))
+    if "workspace" in b and int(servermanager.Fetch(arm).GetFieldData().GetArray("Tick").GetValue(0)) > 0:
+        break
+    time.sleep(0.05)
+check("workspace" in b, "a live device's workspace block: %s" % list(b))
+wb = b["workspace"].GetBounds()
+centre = [(wb[0] + wb[1]) / 2, (wb[2] + wb[3]) / 2, (wb[4] + wb[5]) / 2]
+radius = (wb[1] - wb[0]) / 2
+top = max(b[t].GetBounds()[5] for t in ("enamel", "dentin", "pulp"))
+print("workspace centre %s, radius %.1f mm, tooth top %.2f mm" % ([round(c, 2) for c in centre], radius, top))
+check(abs(centre[2] - (top + 1.0)) < 0.15 and abs(centre[0]) < 0.3 and abs(centre[1]) < 0.3,
+      "centred on the tooth: %s, top %.2f" % (centre, top))
+check(abs(radius - 100.0) < 0.5, "the desktop profile's 100 mm reach: %.2f" % radius)
+check(b["workspace"].GetPointData().GetArray("Colour").GetTuple3(0) == (60.0, 120.0, 220.0), "own colour")
+burr_bottom = b["burr"].GetBounds()[4]
+check(abs(burr_bottom - (top + 1.0)) < 0.6, "the stylus at the origin holds the burr above the crown: %.2f" % burr_bottom)
+arm.SMProxy.InvokeCommand("Stop")
+arm.UpdatePipeline()
+sending = False
+bridge.stop()
 print("PASSED test_haptic_session_clinician")

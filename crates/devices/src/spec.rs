@@ -164,6 +164,17 @@ impl DeviceSpec {
         })
     }
 
+    /// Where a live device's frame goes on the scan (its explicit `+reg` or the default, centred
+    /// on the tooth); `None` for scripted paths and the hand, which are in scan mm already.
+    pub fn registration(&self) -> Option<Registration> {
+        match self {
+            DeviceSpec::Registered(_, r) => Some(*r),
+            DeviceSpec::WithPedal(inner, _) => inner.registration(),
+            live if live.is_live() => Some(Registration::default()),
+            _ => None,
+        }
+    }
+
     /// A device a person moves: the session ticks on the wall clock and runs until the device
     /// ends it (or the session cap), so `open`'s duration is infinite.
     pub fn is_live(&self) -> bool {

@@ -90,6 +90,10 @@ mod bridge {
         contact_tissue: String,
         /// Changes whenever a tissue surface changes.
         mesh_generation: u64,
+        /// A live device's workspace on the scan (registration): centre (mm) and radius (mm,
+        /// 0 for scripted paths and the simulated hand).
+        workspace_centre_mm: [f64; 3],
+        workspace_radius_mm: f64,
     }
 
     /// A planned preparation ("Dental Preparation"): tissues, tool path, burr, force.
@@ -430,6 +434,8 @@ impl HapticSession {
                 force_n: s.force.to_array(),
                 contact_tissue: s.tissue.unwrap_or_default(),
                 mesh_generation: s.mesh_generation,
+                workspace_centre_mm: s.workspace.map_or([0.0; 3], |w| w.0.to_array()),
+                workspace_radius_mm: s.workspace.map_or(0.0, |w| w.1),
             }
         }
     }

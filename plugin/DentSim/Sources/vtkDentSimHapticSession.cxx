@@ -114,6 +114,29 @@ void Paint(vtkPolyData* pd, unsigned char r, unsigned char g, unsigned char b) {
   pd->GetPointData()->AddArray(c);
 }
 
+// A live device's workspace on the scan: three great circles of the sphere it reaches.
+vtkSmartPointer<vtkPolyData> Workspace(const dentsim::ffi::SessionState& s) {
+  const double* c = s.workspace_centre_mm.data();
+  const double r = s.workspace_radius_mm;
+  constexpr int n = 96;
+  vtkNew<vtkPoints> points;
+  vtkNew<vtkCellArray> lines;
+  for (int plane = 0; plane < 3; ++plane) {
+    lines->InsertNextCell(n + 1);
+    for (int i = 0; i <= n; ++i) {
+      const double a = 2.0 * 3.14159265358979323846 * (i % n) / n;
+      double p[3] = {c[0], c[1], c[2]};
+      p[plane] += r * std::cos(a);
+      p[(plane + 1) % 3] += r * std::sin(a);
+      lines->InsertCellPoint(points->InsertNextPoint(p));
+    }
+  }
+  auto pd = vtkSmartPointer<vtkPolyData>::New();
+  pd->SetPoints(points);
+  pd->SetLines(lines);
+  return pd;
+}
+
 vtkSmartPointer<vtkTable> NewHistory() {
   auto t = vtkSmartPointer<vtkTable>::New();
   for (const char* name : {"Time", "Force", "Fx", "Fy", "Fz"}) {
@@ -213,7 +236,8 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
     dentsim::FillTissueBlocks(burr, burrBlock);
 
     const unsigned int n = in.Tissues->GetNumberOfBlocks();
-    output->SetNumberOfBlocks(n + 2);
+    const bool live = state.workspace_radius_mm > 0.0;
+    output->SetNumberOfBlocks(n + (live ? 3 : 2));
     for (unsigned int i = 0; i < n; ++i) {
       output->SetBlock(i, in.Tissues->GetBlock(i));
       output->GetMetaData(i)->Set(vtkCompositeDataSet::NAME(),
@@ -226,6 +250,12 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
     Paint(arrow, 220, 30, 30);
     output->SetBlock(n + 1, arrow);
     output->GetMetaData(n + 1)->Set(vtkCompositeDataSet::NAME(), "force");
+    if (live) {
+      auto workspace = Workspace(state);
+      Paint(workspace, 60, 120, 220);
+      output->SetBlock(n + 2, workspace);
+      output->GetMetaData(n + 2)->Set(vtkCompositeDataSet::NAME(), "workspace");
+    }
 
     vtkFieldData* fd = output->GetFieldData();
     vtkNew<vtkStringArray> contact;

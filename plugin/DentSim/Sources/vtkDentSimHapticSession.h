@@ -3,7 +3,9 @@
 // state and outputs a multiblock: one block per tissue surface, `burr` (the burr head at the
 // proxy), `force` (a line from the burr centre along the rendered force, 10 mm per N, point array
 // `Force` in N) and field data `ContactTissue`, `Tick`, `Time` (s). Lengths in mm. The burr and
-// the force arrow carry an RGB point array `Colour` (steel grey, red) of their own. Output port 1
+// the force arrow carry an RGB point array `Colour` (steel grey, red) of their own. With a live
+// device (SpaceMouse, OpenIGTLink) a block `workspace` (blue circles) shows where the device's
+// workspace sits on the scan (the registration; centred on the tooth by default). Output port 1
 // is the force over time (a table: Time, Force, Fx, Fy, Fz, ContactTissue) for a Line Chart view.
 // While the session runs, every update (the GUI's live-source timer, or UpdatePipeline() in
 // pvpython) shows its latest state: no other call is needed.

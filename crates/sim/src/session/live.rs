@@ -31,8 +31,10 @@ pub fn workspace_centre(model: &TissueModel) -> DVec3 {
     let mut hi = DVec3::splat(f64::NEG_INFINITY);
     for t in &model.tissues {
         if let Some(b) = t.grid.index_bbox() {
-            lo = lo.min(t.grid.index_to_world(b.min));
-            hi = hi.max(t.grid.index_to_world(b.max));
+            // The active voxels reach a narrow band's half width beyond the surface.
+            let band = DVec3::splat(f64::from(t.grid.background()));
+            lo = lo.min(t.grid.index_to_world(b.min) + band);
+            hi = hi.max(t.grid.index_to_world(b.max) - band);
         }
     }
     if !lo.is_finite() || !hi.is_finite() {
@@ -73,6 +75,9 @@ pub struct LiveState {
     pub running: bool,
     /// Bumped whenever any tissue surface changes.
     pub mesh_generation: u64,
+    /// A live device's workspace on the scan: its centre (mm) and radius (the profile's, times
+    /// the registration's scale); `None` for scripted paths and the hand.
+    pub workspace: Option<(DVec3, f64)>,
 }
 
 pub struct LiveSession {
@@ -91,6 +96,7 @@ pub struct LiveSession {
     start_mesh_volumes: Vec<f64>,
     /// Removed volume per tissue from the grids, once the session has ended.
     removed: Option<Vec<f64>>,
+    workspace: Option<(DVec3, f64)>,
 }
 
 impl LiveSession {
@@ -122,7 +128,9 @@ impl LiveSession {
                 CapsuleTooth::default().build(req.phantom_voxel_mm, &table)?
             }
         };
-        let (device, duration_s) = spec.open_on(workspace_centre(&model)).map_err(|e| invalid("device", e.to_string()))?;
+        let centre = workspace_centre(&model);
+        let workspace = spec.registration().map(|r| (r.offset.unwrap_or(centre), profile.workspace_radius_mm * r.scale));
+        let (device, duration_s) = spec.open_on(centre).map_err(|e| invalid("device", e.to_string()))?;
         // A live device runs until it ends the session (or the session cap), on the wall clock.
         let live = spec.is_live();
         let duration_s = if live { crate::limits::DEFAULT_MAX_SESSION_S - 1.0 } else { duration_s };
@@ -155,6 +163,7 @@ impl LiveSession {
             start_volumes,
             start_mesh_volumes,
             removed: None,
+            workspace,
         })
     }
 
@@ -220,6 +229,7 @@ impl LiveSession {
             tissue: usize::try_from(r.tissue).ok().and_then(|i| self.props.get(i)).map(|p| p.name.clone()),
             running: self.session.is_some(),
             mesh_generation: self.generation,
+            workspace: self.workspace,
         }
     }
 
