@@ -134,8 +134,10 @@ arm = DentalHapticSession(PhantomVoxelSizemm=0.1, Device="OpenIGTLink",
                           OpenIGTLinkURL="igtl://127.0.0.1:%d?pose=Stylus" % port)
 for _ in range(200):
     arm.UpdatePipeline()
-    b = blocks(servermanager.Fetch(arm))
-    if "workspace" in b and int(servermanager.Fetch(arm).GetFieldData().GetArray("Tick").GetValue(0)) > 0:
+    # One fetch per look: while the session runs each fetch shows a newer state.
+    data = servermanager.Fetch(arm)
+    b = blocks(data)
+    if "workspace" in b and int(data.GetFieldData().GetArray("Tick").GetValue(0)) > 0:
         break
     time.sleep(0.05)
 check("workspace" in b, "a live device's workspace block: %s" % list(b))
