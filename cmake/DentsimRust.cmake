@@ -27,5 +27,5 @@ set_target_properties(dentsim_ffi PROPERTIES
   IMPORTED_LOCATION "${DENTSIM_FFI_LIB}"
   INTERFACE_INCLUDE_DIRECTORIES "${DENTSIM_CARGO_TARGET_DIR}/cxxbridge"
   # From `cargo rustc -p dentsim-ffi --crate-type staticlib -- --print native-static-libs`.
-  INTERFACE_LINK_LIBRARIES "openvdb;tbb;Imath-3_1;Threads::Threads;${CMAKE_DL_LIBS};m;rt;util")
+  INTERFACE_LINK_LIBRARIES "openvdb;tbb;Imath-3_1;hidapi-hidraw;Threads::Threads;${CMAKE_DL_LIBS};m;rt;util")
 add_dependencies(dentsim_ffi dentsim_ffi_cargo)

@@ -21,7 +21,12 @@ DENTSIM_APT_PACKAGES=(
   xvfb xauth fonts-dejavu-core
   openmpi-bin qhelpgenerator-qt5 qtxmlpatterns5-dev-tools qttools5-dev
   python3-numpy python3-pydicom python3-nibabel
+  libhidapi-dev libopenigtlink-dev openigtlink-examples python3-pip
 )
+
+# PyPI packages for /usr/bin/python3 (Debian ships none of them): pyigtl is the OpenIGTLink peer
+# the device tests and `dentsim bench`'s igtl_round_trip measure against.
+DENTSIM_PIP_PACKAGES=(pyigtl)
 
 dentsim_log() { printf '[dentsim setup] %s\n' "$*" >&2; }
 
@@ -36,6 +41,17 @@ dentsim_install_packages() {
     [ "$(id -u)" -eq 0 ] || sudo="sudo"
     $sudo apt-get update -qq
     DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  fi
+}
+
+dentsim_install_pip_packages() {
+  local missing=()
+  for p in "${DENTSIM_PIP_PACKAGES[@]}"; do
+    /usr/bin/python3 -c "import $p" 2>/dev/null || missing+=("$p")
+  done
+  if ((${#missing[@]})); then
+    dentsim_log "installing PyPI packages for /usr/bin/python3: ${missing[*]}"
+    /usr/bin/python3 -m pip install -q --break-system-packages "${missing[@]}" >/dev/null
   fi
 }
 
@@ -56,5 +72,6 @@ dentsim_build() {
 }
 
 dentsim_install_packages
+dentsim_install_pip_packages
 dentsim_ensure_cargo
 dentsim_build

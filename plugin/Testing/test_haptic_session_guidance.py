@@ -1,6 +1,6 @@
 """Live guidance in the Dental Haptic Session: a simulated hand drills the phantom toward its pulp
 (top at z = 2.0). The output's field data carries the remaining dentin, the warning level and the
-events; the burr turns amber near the pulp and red inside it (its GuidanceColour array)."""
+events; the burr's Colour turns amber near the pulp and magenta-red inside it."""
 from paraview import servermanager, simple
 
 from dentsim_testing import check, parse_args
@@ -27,7 +27,7 @@ def state(source):
         "threshold": value("ThinDentinThresholdMm"),
         "thin_events": int(value("ThinDentinEvents")),
         "exposures": int(value("PulpExposureEvents")),
-        "colour": tuple(int(c) for c in burr.GetPointData().GetArray("GuidanceColour").GetTuple3(0)),
+        "colour": tuple(int(c) for c in burr.GetPointData().GetArray("Colour").GetTuple3(0)),
         "burr_level": int(burr.GetFieldData().GetArray("GuidanceLevel").GetValue(0)),
     }
 
@@ -45,7 +45,7 @@ check(final["threshold"] == 0.5, "threshold: %s" % final)
 # The command-line run of the same hand warns of thin dentin at 1.2 s and opens the pulp at 1.45 s.
 check(final["thin_events"] >= 1 and final["exposures"] >= 1, "events: %s" % final)
 check(final["level"] == 2 and final["dentin"] < 0.0 and final["burr_level"] == 2, "in the pulp at the end: %s" % final)
-check(final["colour"] == (220, 20, 20), "the burr is red in the pulp: %s" % (final["colour"],))
+check(final["colour"] == (230, 0, 120), "the burr is magenta-red in the pulp: %s" % (final["colour"],))
 first = seen[0]
-check(first["colour"] == (190, 195, 205) and first["level"] == 0, "steel when clear: %s" % first)
+check(first["colour"] == (140, 150, 170) and first["level"] == 0, "steel when clear: %s" % first)
 check(first["dentin"] != first["dentin"], "no reading far from the pulp (NaN): %s" % first)

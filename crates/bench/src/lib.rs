@@ -2,6 +2,8 @@
 //! same run, on the same data. Timings are wall-clock medians and 99th percentiles.
 use std::time::Instant;
 
+pub mod igtl;
+
 use dentsim_devices::ScriptedPath;
 use dentsim_vdb::Measure;
 use glam::{DAffine3, DVec3};
@@ -678,5 +680,7 @@ pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<B
     rows.extend(loop_period(model, cfg.session_seconds)?);
     progress("batch_2_shards");
     rows.push(batch_shards(cfg)?);
+    progress("igtl_round_trip");
+    rows.extend(igtl::igtl_round_trip(model, (cfg.session_seconds * 1000.0) as usize)?);
     Ok(rows)
 }

@@ -4,6 +4,7 @@ mod assess;
 mod batch;
 mod bench;
 mod demo;
+mod devices;
 mod phantom;
 mod prepare;
 mod progress;
@@ -37,6 +38,8 @@ enum Command {
     Session(session::Args),
     /// Replay a session log bit for bit; write tissues, meshes, forces.csv and forces.png.
     Replay(replay::Args),
+    /// List the SpaceMice and foot pedals plugged in (HID).
+    Devices(devices::Args),
     /// Grade a preparation: removed, over- and under-cut volumes, deviation, dentin over the pulp.
     Assess(assess::Args),
     /// Plan a cohort: every scan × preparation of a manifest, whole or one shard, and one report.
@@ -54,5 +57,6 @@ fn main() -> anyhow::Result<()> {
         Command::Replay(args) => replay::run(&args),
         Command::Assess(args) => assess::run(&args),
         Command::Batch(args) => batch::run(&args),
+        Command::Devices(args) => devices::run(&args),
     }
 }

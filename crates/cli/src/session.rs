@@ -12,8 +12,12 @@ pub struct Args {
     /// Tissues to work on (.vdb with one level-set grid per tissue, e.g. from `dentsim demo`).
     #[arg(long)]
     tissues: PathBuf,
-    /// `scripted:PATH.csv` (t,x,y,z,qw,qx,qy,qz[,rpm][,cut]) or `hand:KEY=VAL,...` with keys
-    /// start=X:Y:Z, target=X:Y:Z (mm), push (N), stiffness, damping, mass, pedal (0|1), rpm, duration (s).
+    /// `scripted:PATH.csv` (t,x,y,z,qw,qx,qy,qz[,rpm][,cut]), `hand:KEY=VAL,...` with keys
+    /// start=X:Y:Z, target=X:Y:Z (mm), push (N), stiffness, damping, mass, pedal (0|1), rpm, duration (s),
+    /// or `igtl://HOST:PORT?pose=NAME&force=NAME&pedal=1` (an arm bridged over OpenIGTLink; default
+    /// 127.0.0.1:18944; runs in real time until the peer closes or Ctrl-C, then writes the outputs),
+    /// or `spacemouse[:dead=15,speed=10,turn=45,axes=x:-y:-z,workspace=15,start=X:Y:Z]`; append
+    /// `+pedal[:key=b]` for a USB foot pedal as the cut switch. `dentsim devices` lists HID devices.
     #[arg(long, allow_hyphen_values = true)]
     device: String,
     /// Output folder (created if missing).
@@ -49,6 +53,8 @@ pub fn run(args: &Args) -> Result<()> {
         burr: args.burr.clone(),
     };
     let limits = crate::args::limits(args.memory, Some(args.duration))?;
+    // Ctrl-C ends a live device's session in order: the outputs are still written.
+    let _ = ctrlc::set_handler(dentsim_sim::devices::igtl::request_stop);
     let bar = crate::progress::bar(100);
     let summary = run_session_to_dir_with(&request, &limits, &mut |step, fraction| {
         bar.set_message(step.to_owned());

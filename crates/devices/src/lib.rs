@@ -4,8 +4,11 @@
 
 mod error;
 mod hand;
+pub mod hid;
+pub mod igtl;
 pub mod path;
 mod profile;
+pub mod registration;
 mod scripted;
 mod spec;
 
@@ -14,7 +17,7 @@ pub use hand::{SimulatedHand, HandParams};
 pub use profile::DeviceProfile;
 pub use path::{PathLimits, PathSample, PolylineArrays, ToolPath};
 pub use scripted::{ScriptedPath, DEFAULT_RPM};
-pub use spec::{DeviceSpec, HAND_KEYS};
+pub use spec::{DeviceSpec, PedalOptions, SpaceMouseOptions, HAND_KEYS, PEDAL_KEYS, SPACEMOUSE_KEYS};
 
 use glam::{DAffine3, DVec3};
 

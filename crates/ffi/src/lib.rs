@@ -69,7 +69,8 @@ mod bridge {
         tissues_path: String,
         /// Voxel size of the phantom (mm) when no file is given.
         phantom_voxel_mm: f64,
-        /// `scripted:PATH.csv` or `hand:KEY=VAL,...`.
+        /// `scripted:PATH.csv`, `hand:KEY=VAL,...`, `spacemouse[:...]` or `igtl://HOST:PORT?...`,
+        /// optionally followed by `+pedal[:key=b]`.
         device: String,
         /// Device profile: touch, omni, desktop, premium15, falcon, omega.
         profile: String,
@@ -80,6 +81,8 @@ mod bridge {
         /// A burr spec as for preparations: catalogue name, ISO number, or
         /// `SHAPE:DIAMETER_MM[:LENGTH_MM]`.
         burr: String,
+        /// Where the session log goes (as `dentsim session`'s session.dslog); empty for none.
+        log_path: String,
     }
 
     /// The latest state of a live session.
@@ -107,6 +110,10 @@ mod bridge {
         /// Cuts that left too little dentin, and cuts into the pulp, so far (events).
         thin_dentin_events: u64,
         pulp_exposure_events: u64,
+        /// A live device's workspace on the scan (registration): centre (mm) and radius (mm,
+        /// 0 for scripted paths and the simulated hand).
+        workspace_centre_mm: [f64; 3],
+        workspace_radius_mm: f64,
     }
 
     /// A tissue surface from upstream in the pipeline (one block: name, x,y,z per point,
@@ -250,6 +257,10 @@ mod bridge {
         fn default_session() -> SessionParams;
         fn start_session(params: &SessionParams) -> Result<Box<HapticSession>>;
         fn poll(self: &mut HapticSession) -> Result<SessionState>;
+        /// Ends the session now (Stop): the log is completed and the final tissues meshed.
+        fn stop(self: &mut HapticSession) -> Result<SessionState>;
+        /// Pauses (zero force, nothing cut or logged) or resumes the session.
+        fn set_paused(self: &mut HapticSession, paused: bool);
         fn tissue_surfaces(self: &HapticSession) -> Result<Vec<TissueSurface>>;
         fn burr_surface(self: &HapticSession) -> Result<TissueSurface>;
     }
@@ -771,6 +782,7 @@ fn default_session() -> SessionParams {
         filter: dentsim_sim::haptics::filter::FilterSpec::DEFAULT_NAME.into(),
         realtime: true,
         burr: dentsim_sim::haptics::tick::DEFAULT_BURR.into(),
+        log_path: String::new(),
     }
 }
 
@@ -787,7 +799,9 @@ pub fn start_session(params: &SessionParams) -> Result<Box<HapticSession>, Strin
         };
         let scripted = params.device.strip_prefix("scripted:").unwrap_or("");
         let files = [("Tissues File", params.tissues_path.as_str()), ("Scripted Path (CSV)", scripted)];
-        let live = LiveSession::start_with_burr(&request, &params.burr).map_err(|e| name_property(e.to_string(), &files))?;
+        let log = (!params.log_path.is_empty()).then(|| std::path::PathBuf::from(&params.log_path));
+        let files = [files[0], files[1], ("Session Log", params.log_path.as_str())];
+        let live = LiveSession::start_logged(&request, &params.burr, log).map_err(|e| name_property(e.to_string(), &files))?;
         Ok(Box::new(HapticSession { live, last: LiveState::default() }))
     })
 }
@@ -796,23 +810,40 @@ impl HapticSession {
     fn poll(&mut self) -> Result<SessionState, String> {
         guarded("haptic session poll", || {
             let s = self.live.poll().map_err(|e| e.to_string())?;
-            self.last = s.clone();
-            Ok(SessionState {
-                tick: s.tick,
-                time_s: s.t_s,
-                running: s.running,
-                burr_position_mm: s.proxy.to_array(),
-                device_position_mm: s.pose.translation.to_array(),
-                force_n: s.force.to_array(),
-                contact_tissue: s.tissue.clone().unwrap_or_default(),
-                mesh_generation: s.mesh_generation,
-                remaining_dentin_mm: if s.clearance_mm.is_finite() { s.clearance_mm } else { f64::NAN },
-                warning_level: s.warning_level(),
-                thin_dentin_mm: s.guidance.thin_dentin_mm,
-                thin_dentin_events: s.guidance.thin_dentin_events,
-                pulp_exposure_events: s.guidance.pulp_exposure_events,
-            })
+            Ok(self.state(s))
         })
+    }
+
+    fn stop(&mut self) -> Result<SessionState, String> {
+        guarded("haptic session stop", || {
+            let s = self.live.stop().map_err(|e| e.to_string())?;
+            Ok(self.state(s))
+        })
+    }
+
+    fn set_paused(&mut self, paused: bool) {
+        self.live.set_paused(paused);
+    }
+
+    fn state(&mut self, s: LiveState) -> SessionState {
+        self.last = s.clone();
+        SessionState {
+            tick: s.tick,
+            time_s: s.t_s,
+            running: s.running,
+            burr_position_mm: s.proxy.to_array(),
+            device_position_mm: s.pose.translation.to_array(),
+            force_n: s.force.to_array(),
+            contact_tissue: s.tissue.clone().unwrap_or_default(),
+            mesh_generation: s.mesh_generation,
+            remaining_dentin_mm: if s.clearance_mm.is_finite() { s.clearance_mm } else { f64::NAN },
+            warning_level: s.warning_level(),
+            thin_dentin_mm: s.guidance.thin_dentin_mm,
+            thin_dentin_events: s.guidance.thin_dentin_events,
+            pulp_exposure_events: s.guidance.pulp_exposure_events,
+            workspace_centre_mm: s.workspace.map_or([0.0; 3], |w| w.0.to_array()),
+            workspace_radius_mm: s.workspace.map_or(0.0, |w| w.1),
+        }
     }
 
     fn tissue_surfaces(&self) -> Result<Vec<TissueSurface>, String> {

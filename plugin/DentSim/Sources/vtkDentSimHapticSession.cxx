@@ -15,7 +15,11 @@
 #include <vtkPolyData.h>
 #include <vtkSmartPointer.h>
 #include <vtkStringArray.h>
+#include <vtkTable.h>
+#include <vtkUnsignedCharArray.h>
 
+#include <cmath>
+#include <cstdint>
 #include <optional>
 
 #include "vtkDentSimSurfaces.h"
@@ -27,18 +31,27 @@ struct vtkDentSimHapticSession::Internals {
   vtkSmartPointer<vtkMultiBlockDataSet> Tissues;
   uint64_t MeshGeneration = 0;
   bool ShownFinal = false;
+  bool StopRequested = false;
+  // The force over time, one row per update that saw a new tick.
+  vtkSmartPointer<vtkTable> History;
+  uint64_t LastTick = UINT64_MAX;
 };
 
 vtkStandardNewMacro(vtkDentSimHapticSession);
 
 vtkDentSimHapticSession::vtkDentSimHapticSession() : Internal(new Internals) {
   this->SetNumberOfInputPorts(0);
+  this->SetNumberOfOutputPorts(2);
   const auto d = dentsim::ffi::default_session();
   this->PhantomVoxelSize = d.phantom_voxel_mm;
   this->SetProfile(std::string(d.profile).c_str());
   this->SetFilter(std::string(d.filter).c_str());
   this->SetBurr(std::string(d.burr).c_str());
   this->SetHandParameters("start=0:0:5.6,target=0:0:2.5,push=1,pedal=1,duration=10");
+  this->SetSpaceMouseParameters("");
+  this->SetOpenIGTLinkURL("igtl://127.0.0.1:18944");
+  this->SetPedalKey("b");
+  this->SetSessionLog("");
   this->RealTime = d.realtime;
 }
 
@@ -47,6 +60,10 @@ vtkDentSimHapticSession::~vtkDentSimHapticSession() {
   this->SetTissuesFile(nullptr);
   this->SetScriptedPath(nullptr);
   this->SetHandParameters(nullptr);
+  this->SetSpaceMouseParameters(nullptr);
+  this->SetOpenIGTLinkURL(nullptr);
+  this->SetPedalKey(nullptr);
+  this->SetSessionLog(nullptr);
   this->SetProfile(nullptr);
   this->SetFilter(nullptr);
   this->SetBurr(nullptr);
@@ -60,9 +77,79 @@ bool vtkDentSimHapticSession::GetNeedsUpdate() {
   return true;
 }
 
+int vtkDentSimHapticSession::FillOutputPortInformation(int port, vtkInformation* info) {
+  if (port == 1) {
+    info->Set(vtkDataObject::DATA_TYPE_NAME(), "vtkTable");
+    return 1;
+  }
+  return this->Superclass::FillOutputPortInformation(port, info);
+}
+
+vtkMTimeType vtkDentSimHapticSession::GetMTime() {
+  const vtkMTimeType t = this->Superclass::GetMTime();
+  if (this->Internal && this->Internal->Session && !this->Internal->ShownFinal) {
+    // Still running: news may be waiting, so every update polls (pvpython needs no timer).
+    this->Modified();
+    return this->Superclass::GetMTime();
+  }
+  return t;
+}
+
+void vtkDentSimHapticSession::Stop() {
+  if (this->Internal->Session && !this->Internal->ShownFinal) {
+    this->Internal->StopRequested = true;
+    this->Modified();
+  }
+}
+
 namespace {
 
 std::string Str(const char* s) { return s ? s : ""; }
+
+// A constant RGB colour for every point of `pd` (point array `Colour`, shown with Map Scalars off).
+void Paint(vtkPolyData* pd, unsigned char r, unsigned char g, unsigned char b) {
+  vtkNew<vtkUnsignedCharArray> c;
+  c->SetName("Colour");
+  c->SetNumberOfComponents(3);
+  for (vtkIdType i = 0; i < pd->GetNumberOfPoints(); ++i) c->InsertNextTuple3(r, g, b);
+  pd->GetPointData()->AddArray(c);
+}
+
+// A live device's workspace on the scan: three great circles of the sphere it reaches.
+vtkSmartPointer<vtkPolyData> Workspace(const dentsim::ffi::SessionState& s) {
+  const double* c = s.workspace_centre_mm.data();
+  const double r = s.workspace_radius_mm;
+  constexpr int n = 96;
+  vtkNew<vtkPoints> points;
+  vtkNew<vtkCellArray> lines;
+  for (int plane = 0; plane < 3; ++plane) {
+    lines->InsertNextCell(n + 1);
+    for (int i = 0; i <= n; ++i) {
+      const double a = 2.0 * 3.14159265358979323846 * (i % n) / n;
+      double p[3] = {c[0], c[1], c[2]};
+      p[plane] += r * std::cos(a);
+      p[(plane + 1) % 3] += r * std::sin(a);
+      lines->InsertCellPoint(points->InsertNextPoint(p));
+    }
+  }
+  auto pd = vtkSmartPointer<vtkPolyData>::New();
+  pd->SetPoints(points);
+  pd->SetLines(lines);
+  return pd;
+}
+
+vtkSmartPointer<vtkTable> NewHistory() {
+  auto t = vtkSmartPointer<vtkTable>::New();
+  for (const char* name : {"Time", "Force", "Fx", "Fy", "Fz"}) {
+    vtkNew<vtkDoubleArray> a;
+    a->SetName(name);
+    t->AddColumn(a);
+  }
+  vtkNew<vtkStringArray> contact;
+  contact->SetName("ContactTissue");
+  t->AddColumn(contact);
+  return t;
+}
 
 void AddField(vtkFieldData* fd, const char* name, double value) {
   vtkNew<vtkDoubleArray> a;
@@ -94,18 +181,13 @@ vtkSmartPointer<vtkPolyData> ForceArrow(const dentsim::ffi::SessionState& s, dou
   return pd;
 }
 
-// The burr's warning colour as a direct RGB point array (`GuidanceColour`, shown as is with
-// Map Scalars off): steel when clear, amber within the thin-dentin threshold of the pulp, red in it.
+// The burr's `Colour` from live guidance: steel when clear, amber within the thin-dentin
+// threshold of the pulp, magenta-red in it (the force arrow is plain red); its level as field data.
 void AddGuidance(vtkPolyData* burr, const dentsim::ffi::SessionState& s) {
   if (!burr) return;
-  static const unsigned char colours[3][3] = {{190, 195, 205}, {255, 170, 0}, {220, 20, 20}};
+  static const unsigned char colours[3][3] = {{140, 150, 170}, {255, 170, 0}, {230, 0, 120}};
   const unsigned char* c = colours[s.warning_level < 3 ? s.warning_level : 2];
-  vtkNew<vtkUnsignedCharArray> rgb;
-  rgb->SetName("GuidanceColour");
-  rgb->SetNumberOfComponents(3);
-  rgb->SetNumberOfTuples(burr->GetNumberOfPoints());
-  for (vtkIdType i = 0; i < burr->GetNumberOfPoints(); ++i) rgb->SetTypedTuple(i, c);
-  burr->GetPointData()->AddArray(rgb);
+  Paint(burr, c[0], c[1], c[2]);
   AddField(burr->GetFieldData(), "GuidanceLevel", double(s.warning_level));
 }
 
@@ -122,8 +204,16 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
   dentsim::ffi::SessionParams params = dentsim::ffi::default_session();
   params.tissues_path = Str(this->TissuesFile);
   params.phantom_voxel_mm = this->PhantomVoxelSize;
-  params.device = this->DeviceKind == 0 ? "scripted:" + Str(this->ScriptedPath)
-                                        : "hand:" + Str(this->HandParameters);
+  std::string device;
+  switch (this->DeviceKind) {
+    case 0: device = "scripted:" + Str(this->ScriptedPath); break;
+    case 2: device = Str(this->SpaceMouseParameters).empty() ? "spacemouse" : "spacemouse:" + Str(this->SpaceMouseParameters); break;
+    case 3: device = Str(this->OpenIGTLinkURL); break;
+    default: device = "hand:" + Str(this->HandParameters); break;
+  }
+  if (this->FootPedal) device += "+pedal:key=" + Str(this->PedalKey);
+  params.device = device;
+  params.log_path = Str(this->SessionLog);
   params.profile = Str(this->Profile);
   params.filter = Str(this->Filter);
   params.realtime = this->RealTime;
@@ -131,18 +221,25 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
   const std::string signature = std::string(params.tissues_path) + "|" +
     std::to_string(params.phantom_voxel_mm) + "|" + std::string(params.device) + "|" +
     std::string(params.profile) + "|" + std::string(params.filter) + "|" +
-    std::string(params.burr) + "|" + (params.realtime ? "rt" : "batch");
+    std::string(params.burr) + "|" + (params.realtime ? "rt" : "batch") + "|" +
+    std::string(params.log_path);
   try {
     if (!in.Session || in.StartedWith != signature) {
       in.Session.reset();  // stop the old one first
       in.Tissues = nullptr;
       in.MeshGeneration = 0;
       in.ShownFinal = false;
+      in.StopRequested = false;
+      in.History = NewHistory();
+      in.LastTick = UINT64_MAX;
       in.StartedWith = signature;
       in.Session.emplace(dentsim::ffi::start_session(params));
     }
     auto& session = **in.Session;
-    const auto state = session.poll();
+    const bool stop = in.StopRequested;
+    in.StopRequested = false;
+    session.set_paused(this->Paused);
+    const auto state = stop ? session.stop() : session.poll();
     if (!in.Tissues || state.mesh_generation != in.MeshGeneration) {
       in.Tissues = vtkSmartPointer<vtkMultiBlockDataSet>::New();
       dentsim::FillTissueBlocks(session.tissue_surfaces(), in.Tissues);
@@ -154,7 +251,8 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
     dentsim::FillTissueBlocks(burr, burrBlock);
 
     const unsigned int n = in.Tissues->GetNumberOfBlocks();
-    output->SetNumberOfBlocks(n + 2);
+    const bool live = state.workspace_radius_mm > 0.0;
+    output->SetNumberOfBlocks(n + (live ? 3 : 2));
     for (unsigned int i = 0; i < n; ++i) {
       output->SetBlock(i, in.Tissues->GetBlock(i));
       output->GetMetaData(i)->Set(vtkCompositeDataSet::NAME(),
@@ -165,8 +263,15 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
     output->SetBlock(n, burrSurface);
     output->GetMetaData(n)->Set(vtkCompositeDataSet::NAME(), "burr");
     auto arrow = ForceArrow(state, 0.5);
+    Paint(arrow, 220, 30, 30);
     output->SetBlock(n + 1, arrow);
     output->GetMetaData(n + 1)->Set(vtkCompositeDataSet::NAME(), "force");
+    if (live) {
+      auto workspace = Workspace(state);
+      Paint(workspace, 60, 120, 220);
+      output->SetBlock(n + 2, workspace);
+      output->GetMetaData(n + 2)->Set(vtkCompositeDataSet::NAME(), "workspace");
+    }
 
     vtkFieldData* fd = output->GetFieldData();
     vtkNew<vtkStringArray> contact;
@@ -184,6 +289,15 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
     AddField(fd, "ThinDentinEvents", double(state.thin_dentin_events));
     AddField(fd, "PulpExposureEvents", double(state.pulp_exposure_events));
     in.ShownFinal = !state.running;
+    if (state.tick != in.LastTick) {
+      in.LastTick = state.tick;
+      const double f[3] = {state.force_n[0], state.force_n[1], state.force_n[2]};
+      const double values[5] = {state.time_s, std::sqrt(f[0] * f[0] + f[1] * f[1] + f[2] * f[2]), f[0], f[1], f[2]};
+      for (int c = 0; c < 5; ++c) vtkDoubleArray::SafeDownCast(in.History->GetColumn(c))->InsertNextValue(values[c]);
+      vtkStringArray::SafeDownCast(in.History->GetColumn(5))->InsertNextValue(std::string(state.contact_tissue));
+    }
+    auto* history = vtkTable::GetData(outputVector, 1);
+    history->ShallowCopy(in.History);
   } catch (const rust::Error& e) {
     in.Session.reset();
     in.ShownFinal = true;

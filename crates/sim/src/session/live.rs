@@ -24,6 +24,27 @@ use crate::tissues::model::TissueModel;
 use crate::tissues::surface::{surface, SurfaceFrame};
 use crate::tissues::table::{TissueProps, TissueTable};
 
+/// Where a live device's workspace is centred unless its registration says otherwise: 1 mm
+/// above the top of the tissues, over the middle of their bounding box (scan mm), so the
+/// device's neutral position holds the burr just above the crown.
+pub fn workspace_centre(model: &TissueModel) -> DVec3 {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for t in &model.tissues {
+        if let Some(b) = t.grid.index_bbox() {
+            // The active voxels reach a narrow band's half width beyond the surface.
+            let band = DVec3::splat(f64::from(t.grid.background()));
+            lo = lo.min(t.grid.index_to_world(b.min) + band);
+            hi = hi.max(t.grid.index_to_world(b.max) - band);
+        }
+    }
+    if !lo.is_finite() || !hi.is_finite() {
+        return DVec3::ZERO;
+    }
+    let mid = (lo + hi) * 0.5;
+    DVec3::new(mid.x, mid.y, hi.z + 1.0)
+}
+
 /// What to start.
 #[derive(Clone, Debug)]
 pub struct LiveRequest {
@@ -60,6 +81,9 @@ pub struct LiveState {
     pub clearance_mm: f64,
     /// The guidance events so far.
     pub guidance: GuidanceReport,
+    /// A live device's workspace on the scan: its centre (mm) and radius (the profile's, times
+    /// the registration's scale); `None` for scripted paths and the hand.
+    pub workspace: Option<(DVec3, f64)>,
 }
 
 impl LiveState {
@@ -93,6 +117,7 @@ pub struct LiveSession {
     /// Removed volume per tissue from the grids, once the session has ended.
     removed: Option<Vec<f64>>,
     guidance: GuidanceReport,
+    workspace: Option<(DVec3, f64)>,
 }
 
 impl LiveSession {
@@ -105,6 +130,12 @@ impl LiveSession {
     /// Like [`start`](Self::start), cutting with `burr` (a spec as `dentsim prepare` takes it,
     /// [`Burr::parse`]).
     pub fn start_with_burr(req: &LiveRequest, burr: &str) -> Result<Self> {
+        Self::start_logged(req, burr, None)
+    }
+
+    /// Like [`start_with_burr`](Self::start_with_burr), writing the session log to `log` (as
+    /// `dentsim session` does; a bad path fails here, before any tick).
+    pub fn start_logged(req: &LiveRequest, burr: &str, log: Option<PathBuf>) -> Result<Self> {
         // The burr first: a bad spec is reported before any tissue is built.
         let burr_mesh = Burr::parse(burr)?.head_surface()?;
         let profile = DeviceProfile::named(&req.profile).map_err(|e| invalid("profile", e.to_string()))?;
@@ -118,7 +149,13 @@ impl LiveSession {
                 CapsuleTooth::default().build(req.phantom_voxel_mm, &table)?
             }
         };
-        let (device, duration_s) = spec.open().map_err(|e| invalid("device", e.to_string()))?;
+        let centre = workspace_centre(&model);
+        let workspace = spec.registration().map(|r| (r.offset.unwrap_or(centre), profile.workspace_radius_mm * r.scale));
+        let (device, duration_s) = spec.open_on(centre).map_err(|e| invalid("device", e.to_string()))?;
+        // A live device runs until it ends the session (or the session cap), on the wall clock.
+        let live = spec.is_live();
+        let duration_s = if live { crate::limits::DEFAULT_MAX_SESSION_S - 1.0 } else { duration_s };
+        let realtime = req.realtime || live;
         let params = HapticParams { profile, filter, ..HapticParams::default() };
         let params = HapticParams { burr: burr.to_owned(), ..params };
         let props = model.tissues.iter().map(|t| t.props.clone()).collect();
@@ -126,11 +163,11 @@ impl LiveSession {
         let start_mesh_volumes = meshes.iter().map(|m| m.volume()).collect();
         let options = SessionOptions {
             params,
-            realtime: req.realtime,
+            realtime,
             max_duration_s: (duration_s + 1.0).max(1.0),
-            log_path: None,
+            log_path: log,
             mesher_hz: Some(req.mesher_hz),
-            raise_priority: req.realtime,
+            raise_priority: realtime,
             ..SessionOptions::default()
         };
         let session = Session::start(model, device, options)?;
@@ -148,6 +185,7 @@ impl LiveSession {
             start_mesh_volumes,
             removed: None,
             guidance: GuidanceReport::default(),
+            workspace,
         })
     }
 
@@ -169,19 +207,44 @@ impl LiveSession {
                     }
                 }
             } else {
-                let outcome = self.session.take().expect("checked above").stop()?;
-                // The logger has drained every record by now: its last is the session's last tick.
-                if outcome.last_record.is_some() {
-                    self.last = outcome.last_record;
-                }
-                self.meshes = outcome.model.tissues.iter().map(|t| surface(&t.grid).map(Arc::new)).collect::<Result<Vec<_>>>()?;
-                self.removed = Some(outcome.removed_mm3.iter().map(|(_, v)| *v).collect());
-                self.guidance = outcome.guidance.clone();
-                self.generation += 1;
+                self.finish()?;
             }
         }
+        Ok(self.state())
+    }
+
+    /// Ends the session now (the clinician's Stop): the threads stop, the log is complete and
+    /// the final tissues are meshed, as when a device finishes. Nothing happens once it ended.
+    pub fn stop(&mut self) -> Result<LiveState> {
+        if self.session.is_some() {
+            self.finish()?;
+        }
+        Ok(self.state())
+    }
+
+    /// Pauses or resumes a running session (see [`Session::set_paused`]); nothing once it ended.
+    pub fn set_paused(&mut self, paused: bool) {
+        if let Some(s) = &self.session {
+            s.set_paused(paused);
+        }
+    }
+
+    fn finish(&mut self) -> Result<()> {
+        let outcome = self.session.take().expect("checked by the callers").stop()?;
+        // The logger has drained every record by now: its last is the session's last tick.
+        if outcome.last_record.is_some() {
+            self.last = outcome.last_record;
+        }
+        self.meshes = outcome.model.tissues.iter().map(|t| surface(&t.grid).map(Arc::new)).collect::<Result<Vec<_>>>()?;
+        self.removed = Some(outcome.removed_mm3.iter().map(|(_, v)| *v).collect());
+        self.guidance = outcome.guidance;
+        self.generation += 1;
+        Ok(())
+    }
+
+    fn state(&self) -> LiveState {
         let r = self.last.unwrap_or_default();
-        Ok(LiveState {
+        LiveState {
             tick: r.tick,
             t_s: r.t_s,
             pose: r.pose,
@@ -190,9 +253,10 @@ impl LiveSession {
             tissue: usize::try_from(r.tissue).ok().and_then(|i| self.props.get(i)).map(|p| p.name.clone()),
             running: self.session.is_some(),
             mesh_generation: self.generation,
+            workspace: self.workspace,
             clearance_mm: r.clearance_mm,
             guidance: self.guidance.clone(),
-        })
+        }
     }
 
     pub fn tissues(&self) -> &[TissueProps] {

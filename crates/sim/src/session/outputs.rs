@@ -177,7 +177,11 @@ pub fn run_session_to_dir_with(req: &SessionRequest, limits: &Limits, progress: 
     let filter = FilterSpec::named(&req.filter).map_err(|m| invalid("filter", m))?;
     let spec = DeviceSpec::parse(&req.device).map_err(|e| invalid("device", e.to_string()))?;
     let model = load_tissues(&req.tissues)?;
-    let (device, duration_s) = spec.open().map_err(|e| invalid("device", e.to_string()))?;
+    let (device, duration_s) = spec.open_on(crate::session::live::workspace_centre(&model)).map_err(|e| invalid("device", e.to_string()))?;
+    // A live device runs until it ends the session, within the cap, on the wall clock.
+    let live = spec.is_live();
+    let duration_s = if live { limits.max_session_s } else { duration_s };
+    let realtime = req.realtime || live;
     limits.check_session(&req.device, duration_s)?;
     let burr = crate::burr::Burr::parse(&req.burr)?;
     let params = HapticParams { profile, filter, burr: req.burr.clone(), ..HapticParams::default() };
@@ -194,11 +198,11 @@ pub fn run_session_to_dir_with(req: &SessionRequest, limits: &Limits, progress: 
     let had_previous = std::fs::rename(&log_path, &previous).is_ok();
     let options = SessionOptions {
         params: params.clone(),
-        realtime: req.realtime,
-        max_duration_s: (duration_s + 1.0).max(1.0),
+        realtime,
+        max_duration_s: if live { duration_s } else { (duration_s + 1.0).max(1.0) },
         log_path: Some(log_path.clone()),
         mesher_hz: None,
-        raise_priority: req.realtime,
+        raise_priority: realtime,
         ..SessionOptions::default()
     };
     let session = match Session::start(model, device, options) {
@@ -243,7 +247,7 @@ pub fn run_session_to_dir_with(req: &SessionRequest, limits: &Limits, progress: 
             profile: req.profile.clone(),
             filter: req.filter.clone(),
             burr: req.burr.clone(),
-            realtime: req.realtime,
+            realtime,
             ticks: outcome.ticks,
             duration_s: outcome.ticks as f64 * period,
             missed_deadlines: outcome.missed_deadlines,

@@ -10,7 +10,7 @@ use crate::error::{invalid, Result};
 use crate::haptics::tick::HapticCore;
 use crate::haptics::guidance::GUIDANCE_FLAGS;
 use crate::session::guidance::{GuidanceReport, GuidanceTracker};
-use crate::session::log::{SessionLog, FLAG_MISSED};
+use crate::session::log::{SessionLog, FLAG_DEVICE_FAULT, FLAG_MISSED};
 use crate::tissues::model::TissueModel;
 
 /// The rendered force at one tick, as logged.
@@ -92,6 +92,13 @@ pub fn replay_until(log: &SessionLog, mut model: TissueModel, until: Option<u64>
     for (i, r) in records.iter().enumerate() {
         if i % 1000 == 0 {
             progress(i as f64 / total);
+        }
+        if r.flags & FLAG_DEVICE_FAULT != 0 {
+            // The session ran no tick while the device was gone: zero force, nothing cut.
+            max_diff = max_diff.max(r.force.length());
+            cut_differently += u64::from(r.changed_voxels != 0);
+            forces.push(ForceSample { t_s: r.t_s, force: r.force, tissue: r.tissue, removed_mm3: 0.0, clearance_mm: f64::INFINITY });
+            continue;
         }
         let state = DeviceState { pose: r.pose, buttons: r.buttons, rpm: r.rpm };
         let out = core.tick(&mut model, &state, r.flags & FLAG_MISSED != 0)?;

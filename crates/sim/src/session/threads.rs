@@ -132,6 +132,8 @@ struct Recut {
 
 struct Shared {
     stop: AtomicBool,
+    /// Paused by the user: zero force, nothing cut or logged, the clock goes on.
+    paused: AtomicBool,
     haptic_done: AtomicBool,
     latest: Mutex<Option<TickRecord>>,
     /// The guidance events so far (the logger's, for displays).
@@ -195,6 +197,7 @@ impl Session {
         let names: Vec<String> = model.tissues.iter().map(|t| t.props.name.clone()).collect();
         let shared = Arc::new(Shared {
             stop: AtomicBool::new(false),
+            paused: AtomicBool::new(false),
             haptic_done: AtomicBool::new(false),
             latest: Mutex::new(None),
             guidance: Mutex::new(GuidanceReport::default()),
@@ -316,6 +319,16 @@ impl Session {
 
     pub fn tissue_names(&self) -> &[String] {
         &self.names
+    }
+
+    /// Pauses or resumes the session: while paused each tick still reads the device but renders
+    /// zero force, cuts nothing and logs nothing (the log skips those ticks); the proxy holds.
+    pub fn set_paused(&self, paused: bool) {
+        self.shared.paused.store(paused, Ordering::Release);
+    }
+
+    pub fn is_paused(&self) -> bool {
+        self.shared.paused.load(Ordering::Acquire)
     }
 
     /// True while the haptic thread runs (a scripted device ends it by finishing).
@@ -459,18 +472,50 @@ fn haptic_loop<D: Device>(
         let wall = start.elapsed().as_secs_f64();
         let missed = options.realtime && wall - t > 0.5 * period;
         let mut flags = if missed { FLAG_MISSED } else { 0 };
+        if shared.paused.load(Ordering::Acquire) {
+            // The device is still read (its queues drained) but renders nothing.
+            let _ = device.poll(t);
+            device.send_force(DVec3::ZERO, DVec3::ZERO);
+            tick += 1;
+            if device.finished(t) || t >= options.max_duration_s {
+                break;
+            }
+            continue;
+        }
         let state = match device.poll(t) {
             Ok(s) => s,
             Err(_) => {
+                // Unplugged, stalled or not yet connected: zero force this very tick, the proxy
+                // holds, and the session goes on until the device is back (or ends it).
                 stats.faults += 1;
-                flags |= FLAG_DEVICE_FAULT;
-                match last {
-                    Some(s) => s,
-                    None => {
-                        tick += 1;
-                        continue;
+                stats.missed += u64::from(missed);
+                device.send_force(DVec3::ZERO, DVec3::ZERO);
+                if let Some(s) = last {
+                    let record = TickRecord {
+                        tick,
+                        t_s: t,
+                        wall_s: wall,
+                        pose: s.pose,
+                        buttons: s.buttons,
+                        rpm: s.rpm,
+                        force: DVec3::ZERO,
+                        torque: DVec3::ZERO,
+                        proxy: core.proxy(),
+                        tissue: -1,
+                        flags: flags | FLAG_DEVICE_FAULT,
+                        changed_voxels: 0,
+                        // No tick ran: no reading.
+                        clearance_mm: f64::INFINITY,
+                    };
+                    if records.push(record).is_err() {
+                        stats.dropped_records += 1;
                     }
                 }
+                tick += 1;
+                if device.finished(t) || t >= options.max_duration_s {
+                    break;
+                }
+                continue;
             }
         };
         last = Some(state);

@@ -1,0 +1,135 @@
+//! A device that drops out mid-session (unplugged, a stalled link): zero force from the tick it
+//! faults, the proxy held, the session goes on and takes the device back when it answers.
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Arc;
+
+use dentsim_devices::{Device, DeviceState, Fault, HandParams, SimulatedHand};
+use dentsim_sim::session::log::{SessionLog, FLAG_DEVICE_FAULT};
+use dentsim_sim::session::threads::{run_session, SessionOptions};
+use dentsim_sim::tissues::capsule::CapsuleTooth;
+use dentsim_sim::tissues::table::TissueTable;
+use glam::DVec3;
+
+/// Faults from `from_s` to `to_s`; counts the forces it is sent while faulted that are not zero.
+struct Flaky {
+    hand: SimulatedHand,
+    from_s: f64,
+    to_s: f64,
+    faulted: bool,
+    nonzero_in_fault: Arc<AtomicU64>,
+    sends_in_fault: Arc<AtomicU64>,
+}
+
+impl Device for Flaky {
+    fn poll(&mut self, t: f64) -> Result<DeviceState, Fault> {
+        self.faulted = t >= self.from_s && t < self.to_s;
+        if self.faulted {
+            return Err(Fault::Disconnected);
+        }
+        self.hand.poll(t)
+    }
+    fn send_force(&mut self, force: DVec3, torque: DVec3) {
+        if self.faulted {
+            self.sends_in_fault.fetch_add(1, Ordering::Relaxed);
+            if force != DVec3::ZERO || torque != DVec3::ZERO {
+                self.nonzero_in_fault.fetch_add(1, Ordering::Relaxed);
+            }
+        }
+        self.hand.send_force(force, torque)
+    }
+    fn finished(&self, t: f64) -> bool {
+        self.hand.finished(t)
+    }
+    fn name(&self) -> &str {
+        "flaky hand"
+    }
+}
+
+#[test]
+fn a_fault_sends_zero_force_that_tick_and_the_session_goes_on() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = CapsuleTooth::default().build(0.05, &TissueTable::default()).unwrap();
+    // Touch mode: the hand presses on the enamel (top at z = 5) with 1 N.
+    let hand = SimulatedHand::new(HandParams { start: DVec3::new(0.0, 0.0, 5.3), target: DVec3::new(0.0, 0.0, 3.0), duration_s: 1.5, ..Default::default() });
+    let (nonzero, sends) = (Arc::new(AtomicU64::new(0)), Arc::new(AtomicU64::new(0)));
+    let dev = Flaky { hand, from_s: 0.8, to_s: 0.9, faulted: false, nonzero_in_fault: nonzero.clone(), sends_in_fault: sends.clone() };
+    let log = dir.path().join("s.dslog");
+    let options = SessionOptions { realtime: false, log_path: Some(log.clone()), mesher_hz: None, raise_priority: false, ..Default::default() };
+    let out = run_session(model, dev, options).unwrap();
+    assert_eq!(out.device_faults, 100);
+    assert_eq!((sends.load(Ordering::Relaxed), nonzero.load(Ordering::Relaxed)), (100, 0), "every faulted tick sent zero force");
+    let log = SessionLog::read(&log).unwrap();
+    let at = |t: f64| log.records.iter().find(|r| r.t_s >= t - 1e-9).unwrap();
+    assert!(at(0.79).force.length() > 0.5, "pressing before: {}", at(0.79).force);
+    let faulted: Vec<_> = log.records.iter().filter(|r| r.flags & FLAG_DEVICE_FAULT != 0).collect();
+    assert_eq!(faulted.len(), 100);
+    assert!(faulted.iter().all(|r| r.force == DVec3::ZERO && r.tissue == -1));
+    assert!(at(0.95).force.length() > 0.5, "pressing again after: {}", at(0.95).force);
+    assert!(log.records.last().unwrap().t_s > 1.4, "the session went on to the hand's end");
+}
+
+/// A session with a dropout, replayed: the faulted ticks ran no tick, and the replay runs none
+/// either, so every force and every cut comes out as logged.
+#[test]
+fn a_session_with_a_dropout_replays_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = CapsuleTooth::default().build(0.08, &TissueTable::default()).unwrap();
+    let start = model.clone();
+    // Cut mode: the pedal held, the hand drilling down through the dropout.
+    let hand = SimulatedHand::new(HandParams {
+        start: DVec3::new(0.0, 0.0, 5.6),
+        target: DVec3::new(0.0, 0.0, 3.0),
+        push_n: 2.0,
+        pedal: true,
+        rpm: 400_000.0,
+        duration_s: 1.5,
+        ..Default::default()
+    });
+    let dev = Flaky { hand, from_s: 0.6, to_s: 0.75, faulted: false, nonzero_in_fault: Arc::default(), sends_in_fault: Arc::default() };
+    let path = dir.path().join("f.dslog");
+    let options = SessionOptions { realtime: false, log_path: Some(path.clone()), mesher_hz: None, raise_priority: false, ..Default::default() };
+    let out = run_session(model, dev, options).unwrap();
+    assert_eq!(out.device_faults, 150);
+    let log = SessionLog::read(&path).unwrap();
+    let again = dentsim_sim::session::replay::replay(&log, start).unwrap();
+    assert_eq!((again.max_force_difference_n, again.ticks_cut_differently, again.ticks_guided_differently), (0.0, 0, Some(0)));
+    for (a, b) in again.model.tissues.iter().zip(&out.model.tissues) {
+        assert_eq!(a.grid.content_hash(), b.grid.content_hash(), "{}", a.props.name);
+    }
+    assert!(out.removed_mm3.iter().any(|(_, v)| *v > 0.1), "it cut: {:?}", out.removed_mm3);
+}
+
+#[test]
+fn a_paused_session_renders_no_force_and_logs_nothing_then_resumes() {
+    use dentsim_sim::session::threads::Session;
+    let dir = tempfile::tempdir().unwrap();
+    let model = CapsuleTooth::default().build(0.08, &TissueTable::default()).unwrap();
+    let hand = SimulatedHand::new(HandParams { start: DVec3::new(0.0, 0.0, 5.3), target: DVec3::new(0.0, 0.0, 3.0), duration_s: 1.0, ..Default::default() });
+    let (nonzero, sends) = (Arc::new(AtomicU64::new(0)), Arc::new(AtomicU64::new(0)));
+    // Never faults: counts nothing; the pause is what is tested.
+    let dev = Flaky { hand, from_s: -1.0, to_s: -1.0, faulted: false, nonzero_in_fault: nonzero, sends_in_fault: sends };
+    let log = dir.path().join("p.dslog");
+    let options = SessionOptions { realtime: true, log_path: Some(log.clone()), mesher_hz: None, raise_priority: false, ..Default::default() };
+    let session = Session::start(model, dev, options).unwrap();
+    // Pressing on the enamel first, then paused mid-session.
+    while session.latest().is_none_or(|r| r.force.length() < 0.1) {
+        std::thread::sleep(std::time::Duration::from_millis(1));
+    }
+    session.set_paused(true);
+    assert!(session.is_paused());
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    session.set_paused(false);
+    while session.is_running() {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let out = session.stop().unwrap();
+    let log = SessionLog::read(&log).unwrap();
+    let skipped = out.ticks - log.records.len() as u64;
+    println!("{} ticks, {} logged, {} paused", out.ticks, log.records.len(), skipped);
+    assert!(skipped > 0, "the paused ticks are not logged");
+    assert!(log.records.windows(2).all(|w| w[1].tick > w[0].tick));
+    // The gap is the pause; after it the session renders force again.
+    let gap = log.records.windows(2).position(|w| w[1].tick > w[0].tick + 1).expect("a gap where the pause was");
+    let after = log.records[gap + 1..].iter().map(|r| r.force.length()).fold(0.0, f64::max);
+    assert!(after > 0.1, "pressing again after the pause: max {after} N");
+}
