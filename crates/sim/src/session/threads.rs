@@ -437,9 +437,12 @@ fn raise_priority(fifo_value: u8, normal_value: u8) {
     }
 }
 
-/// Sleeps until 300 µs before `deadline`, then spins: the OS sleep alone is ~50–100 µs late.
+/// Sleeps until 200 µs before `deadline`, then spins: the OS sleep alone is ~50–100 µs late.
+/// Not longer: a spinning FIFO haptic thread holds its core, and an OpenIGTLink answer whose I/O
+/// thread waits behind it was up to the spin late (`igtl_round_trip` p99 551–559 µs in two of
+/// seven runs at 300 µs; ≤ 474 µs in eleven at 200, `loop_period` p99.9 unchanged).
 fn wait_until(deadline: Instant) {
-    const SPIN: Duration = Duration::from_micros(300);
+    const SPIN: Duration = Duration::from_micros(200);
     let now = Instant::now();
     if deadline > now + SPIN {
         std::thread::sleep(deadline - now - SPIN);
