@@ -29,6 +29,8 @@ def state(source):
         "exposures": int(value("PulpExposureEvents")),
         "colour": tuple(int(c) for c in burr.GetPointData().GetArray("Colour").GetTuple3(0)),
         "burr_level": int(burr.GetFieldData().GetArray("GuidanceLevel").GetValue(0)),
+        "burr_label": int(burr.GetCellData().GetArray("Tissue").GetValue(0)),
+        "force_label": int(data.GetBlock(names.index("force")).GetCellData().GetArray("Tissue").GetValue(0)),
     }
 
 
@@ -49,3 +51,11 @@ check(final["colour"] == (230, 0, 120), "the burr is magenta-red in the pulp: %s
 first = seen[0]
 check(first["colour"] == (140, 150, 170) and first["level"] == 0, "steel when clear: %s" % first)
 check(first["dentin"] != first["dentin"], "no reading far from the pulp (NaN): %s" % first)
+# The default colour map (categorical on Tissue) names the burr by its warning and the force.
+check(first["burr_label"] == 0 and final["burr_label"] == -2 and final["force_label"] == -3,
+      "labels: clear %d, in the pulp %d, force %d" % (first["burr_label"], final["burr_label"], final["force_label"]))
+lut = simple.GetColorTransferFunction("Tissue")
+annotations = list(lut.Annotations)
+for label, name in (("0", "burr"), ("-1", "burr near the pulp"), ("-2", "burr in the pulp"), ("-3", "force")):
+    check(label in annotations[0::2] and annotations[annotations.index(label) + 1] == name,
+          "the Tissue colour map names %s: %s" % (name, annotations))

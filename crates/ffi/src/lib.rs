@@ -235,6 +235,10 @@ mod bridge {
         /// The tissue table as ParaView settings: a categorical colour map for the cell array
         /// `Tissue` (each tissue's colour, opacity and name), JSON for vtkSMSettings.
         fn tissue_colour_settings() -> String;
+        /// The `Tissue` label of the session's burr at a guidance warning level (0 clear, 1 near
+        /// the pulp, 2 in it) and of its force arrow: the default colour map colours them.
+        fn burr_label(warning_level: u8) -> i32;
+        fn force_label() -> i32;
     }
 
     extern "Rust" {
@@ -657,9 +661,13 @@ pub fn start_preparation(
 /// `array_lookup_tables` settings ParaView reads when it first colours by an array of that name.
 fn tissue_colour_settings() -> String {
     let table = TissueTable::default();
-    let mut annotations = vec![serde_json::json!(BURR_LABEL.to_string()), serde_json::json!("burr")];
-    let mut colours: Vec<f32> = BURR_COLOUR.to_vec();
-    let mut opacities = vec![1.0f32];
+    let (mut annotations, mut colours, mut opacities) = (Vec::new(), Vec::new(), Vec::new());
+    for (label, name, colour) in SESSION_LABELS {
+        annotations.push(serde_json::json!(label.to_string()));
+        annotations.push(serde_json::json!(name));
+        colours.extend(colour);
+        opacities.push(1.0f32);
+    }
     for t in &table.tissues {
         annotations.push(serde_json::json!(t.label.to_string()));
         annotations.push(serde_json::json!(t.name));
@@ -731,7 +739,22 @@ fn batch_merge(manifest: &str, out: &str, shards: u32) -> Result<Vec<BatchRow>, 
 
 /// The burr's label and colour in the session's output (its `Tissue` cell array).
 const BURR_LABEL: i32 = 0;
-const BURR_COLOUR: [f32; 3] = [0.75, 0.75, 0.8];
+/// The session's own blocks in the `Tissue` colour map, beside the tissues' labels (1 and up):
+/// the burr by live guidance's warning level, then the force arrow.
+const SESSION_LABELS: [(i32, &str, [f32; 3]); 4] = [
+    (BURR_LABEL, "burr", [0.75, 0.75, 0.8]),
+    (-1, "burr near the pulp", [1.0, 0.67, 0.0]),
+    (-2, "burr in the pulp", [0.9, 0.0, 0.47]),
+    (-3, "force", [0.86, 0.12, 0.12]),
+];
+
+fn burr_label(warning_level: u8) -> i32 {
+    SESSION_LABELS[usize::from(warning_level.min(2))].0
+}
+
+fn force_label() -> i32 {
+    SESSION_LABELS[3].0
+}
 
 /// Surfaces of a cut model with each tissue's volume figures.
 fn cut_surfaces(model: &dentsim_sim::tissues::model::TissueModel, volumes: &[TissueVolumes]) -> Result<Vec<TissueSurface>, String> {
@@ -1072,6 +1095,13 @@ mod tests {
         assert_eq!(lut["Annotations"][2 * i], enamel.label.to_string());
         assert!((lut["IndexedOpacities"][i].as_f64().unwrap() - f64::from(enamel.opacity)).abs() < 1e-6);
         assert!(enamel.opacity < 1.0, "enamel is translucent in the table");
+        // The session's burr (by warning level) and force arrow have colours of their own.
+        for (label, name) in [(burr_label(0), "burr"), (burr_label(1), "burr near the pulp"), (burr_label(2), "burr in the pulp"), (force_label(), "force")] {
+            let k = names.iter().position(|n| *n == name).unwrap_or_else(|| panic!("{name}"));
+            assert_eq!(lut["Annotations"][2 * k], label.to_string());
+            assert!(table.tissues.iter().all(|t| i32::from(t.label) != label), "{name} is no tissue's label");
+        }
+        assert_eq!(names.len() * 3, lut["IndexedColors"].as_array().unwrap().len());
         for c in 0..3 {
             assert!((lut["IndexedColors"][3 * i + c].as_f64().unwrap() - f64::from(enamel.colour[c])).abs() < 1e-6);
         }

@@ -3,7 +3,9 @@
 #include <vtkCellArray.h>
 #include <vtkCompositeDataSet.h>
 #include <vtkDoubleArray.h>
+#include <vtkCellData.h>
 #include <vtkFieldData.h>
+#include <vtkIntArray.h>
 #include <vtkUnsignedCharArray.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
@@ -181,6 +183,16 @@ vtkSmartPointer<vtkPolyData> ForceArrow(const dentsim::ffi::SessionState& s, dou
   return pd;
 }
 
+// Every cell's `Tissue` label: the default colour map (the tissue table's, categorical) colours
+// the session's burr and force arrow as it colours the tissues.
+void SetLabel(vtkPolyData* pd, int label) {
+  vtkNew<vtkIntArray> tissue;
+  tissue->SetName("Tissue");
+  tissue->SetNumberOfTuples(pd->GetNumberOfCells());
+  tissue->FillValue(label);
+  pd->GetCellData()->SetScalars(tissue);
+}
+
 // The burr's `Colour` from live guidance: steel when clear, amber within the thin-dentin
 // threshold of the pulp, magenta-red in it (the force arrow is plain red); its level as field data.
 void AddGuidance(vtkPolyData* burr, const dentsim::ffi::SessionState& s) {
@@ -189,6 +201,7 @@ void AddGuidance(vtkPolyData* burr, const dentsim::ffi::SessionState& s) {
   const unsigned char* c = colours[s.warning_level < 3 ? s.warning_level : 2];
   Paint(burr, c[0], c[1], c[2]);
   AddField(burr->GetFieldData(), "GuidanceLevel", double(s.warning_level));
+  SetLabel(burr, dentsim::ffi::burr_label(s.warning_level));
 }
 
 }  // namespace
@@ -264,6 +277,7 @@ int vtkDentSimHapticSession::RequestData(vtkInformation*, vtkInformationVector**
     output->GetMetaData(n)->Set(vtkCompositeDataSet::NAME(), "burr");
     auto arrow = ForceArrow(state, 0.5);
     Paint(arrow, 220, 30, 30);
+    SetLabel(arrow, dentsim::ffi::force_label());
     output->SetBlock(n + 1, arrow);
     output->GetMetaData(n + 1)->Set(vtkCompositeDataSet::NAME(), "force");
     if (live) {
