@@ -4,7 +4,10 @@ use std::path::Path;
 const SOURCES: [&str; 7] = ["level_set.cc", "reader.cc", "cut.cc", "mesh.cc", "files.cc", "sample.cc", "offset.cc"];
 
 fn main() {
-    let cpp = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../cpp");
+    // Read when the script runs, not baked in when it is compiled: a build script compiled for
+    // one checkout and reused from a shared target folder by another read the first one's files.
+    let manifest = std::env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR");
+    let cpp = Path::new(&manifest).join("../../cpp");
     let vdb = cpp.join("vdb");
     // The benchmark peers (feature `peer`) are compiled only for the bench crate.
     let peer = std::env::var_os("CARGO_FEATURE_PEER").is_some();

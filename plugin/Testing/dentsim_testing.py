@@ -62,6 +62,12 @@ def compare_with_baseline(view, args, name, threshold=15):
     simple.Render(view)
     image = os.path.join(args.temp, name + ".png")
     simple.SaveScreenshot(image, view, ImageResolution=list(view.ViewSize))
+    compare_image(image, args, name, threshold)
+
+
+def compare_image(image, args, name, threshold=15):
+    """Compares a saved picture with baselines/<name>.png (or makes it the baseline with
+    --update-baseline)."""
     baseline = os.path.join(args.baselines, name + ".png")
     if args.update_baseline:
         shutil.copyfile(image, baseline)

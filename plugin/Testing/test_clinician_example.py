@@ -5,7 +5,7 @@ import os
 import runpy
 import sys
 
-from dentsim_testing import check, fail, parse_args
+from dentsim_testing import check, compare_image, parse_args
 
 args = parse_args()
 example = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "examples", "paraview", "clinician_tooth.py")
@@ -22,26 +22,5 @@ check(removed[("crown", "enamel")] > 5.0 * removed[("class_I", "enamel")], "the 
 check(removed[("class_I", "pulp")] == 0.0 and removed[("crown", "pulp")] == 0.0, "the pulp is untouched")
 check(os.path.getsize(os.path.join(out, "tooth.pvsm")) > 1000, "a state file for the GUI")
 
-from vtkmodules.vtkIOImage import vtkPNGReader  # noqa: E402
-from vtkmodules.vtkImagingCore import vtkImageDifference  # noqa: E402
-import shutil  # noqa: E402
-
-image, baseline = os.path.join(out, "tooth.png"), os.path.join(args.baselines, "clinician_tooth.png")
-if args.update_baseline:
-    shutil.copyfile(image, baseline)
-elif not os.path.exists(baseline):
-    fail("no baseline " + baseline)
-else:
-    readers = []
-    for path in (image, baseline):
-        reader = vtkPNGReader()
-        reader.SetFileName(path)
-        reader.Update()
-        readers.append(reader)
-    diff = vtkImageDifference()
-    diff.SetInputConnection(readers[0].GetOutputPort())
-    diff.SetImageConnection(readers[1].GetOutputPort())
-    diff.Update()
-    print("image difference from baseline: %.2f" % diff.GetThresholdedError())
-    check(diff.GetThresholdedError() <= 15, "tooth.png differs from %s; see %s" % (baseline, image))
+compare_image(os.path.join(out, "tooth.png"), args, "clinician_tooth")
 print("PASSED test_clinician_example")

@@ -375,15 +375,7 @@ impl NestedBuilder<'_> {
         let updates: Vec<(usize, f32)> = (0..field.len())
             .into_par_iter()
             .filter_map(|n| {
-                let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
-                let neighbours = [
-                    (i > 0).then(|| n - 1),
-                    (i + 1 < nx).then(|| n + 1),
-                    (j > 0).then(|| n - nx),
-                    (j + 1 < ny).then(|| n + nx),
-                    (k > 0).then(|| n - nx * ny),
-                    (k + 1 < nz).then(|| n + nx * ny),
-                ];
+                let neighbours = face_neighbours(n, [nx, ny, nz]);
                 let mut counts = [0u8; 16];
                 for m in neighbours.into_iter().flatten().filter(|&m| inside[m] != inside[n]) {
                     counts[(labels[m] as usize).min(15)] += 1;
@@ -526,15 +518,7 @@ fn keep_largest_component(labels: &mut dentsim_cbct::LabelVolume, label: Label, 
         queue.push_back(start);
         while let Some(n) = queue.pop_front() {
             size += 1;
-            let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
-            let neighbours = [
-                (i > 0).then(|| n - 1),
-                (i + 1 < nx).then(|| n + 1),
-                (j > 0).then(|| n - nx),
-                (j + 1 < ny).then(|| n + nx),
-                (k > 0).then(|| n - nx * ny),
-                (k + 1 < nz).then(|| n + nx * ny),
-            ];
+            let neighbours = face_neighbours(n, [nx, ny, nz]);
             for m in neighbours.into_iter().flatten() {
                 if labels.labels[m] == code && component[m] == u32::MAX {
                     component[m] = id;
@@ -560,4 +544,17 @@ fn centre_of(scan: &Volume) -> [f64; 3] {
     let m = scan.index_to_world();
     let c = scan.dims.map(|d| (d as f64 - 1.0) / 2.0);
     [0, 1, 2].map(|r| m[4 * r] * c[0] + m[4 * r + 1] * c[1] + m[4 * r + 2] * c[2] + m[4 * r + 3])
+}
+
+/// The six face neighbours of voxel `n` (x fastest) in a grid of `dims`, `None` past its edge.
+fn face_neighbours(n: usize, [nx, ny, nz]: [usize; 3]) -> [Option<usize>; 6] {
+    let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
+    [
+        (i > 0).then(|| n - 1),
+        (i + 1 < nx).then(|| n + 1),
+        (j > 0).then(|| n - nx),
+        (j + 1 < ny).then(|| n + nx),
+        (k > 0).then(|| n - nx * ny),
+        (k + 1 < nz).then(|| n + nx * ny),
+    ]
 }
