@@ -6,6 +6,6 @@ source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
 out="${1:-$DENTSIM_ROOT/out}"
 "$CARGO_TARGET_DIR/release/dentsim" demo --out "$out"
-xvfb-run -a -s "-screen 0 1280x1024x24" pvbatch "$DENTSIM_ROOT/plugin/scripts/render_tissues.py" "$out"
+xvfb-run -a -s "-screen 0 1280x1024x24 -noreset" pvbatch "$DENTSIM_ROOT/plugin/scripts/render_tissues.py" "$out"
 echo "outputs in $out:"
 ls -1 "$out"

@@ -2,7 +2,7 @@
 enamel coloured by its normal error against the analytic enamel (0-20 degrees), and beside it the
 analytic enamel, both seen from the same side.
 
-    xvfb-run -a -s "-screen 0 1280x1024x24" pvbatch plugin/scripts/render_normal_error.py OUT
+    xvfb-run -a -s "-screen 0 1280x1024x24 -noreset" pvbatch plugin/scripts/render_normal_error.py OUT
 """
 import os
 import sys

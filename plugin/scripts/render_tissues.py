@@ -1,7 +1,7 @@
 """Renders the tissue surfaces in a dentsim output folder to <folder>/tissues.png.
 
 Run under pvbatch with a display (xvfb-run on a headless machine):
-    xvfb-run -a -s "-screen 0 1280x1024x24" pvbatch plugin/scripts/render_tissues.py OUT
+    xvfb-run -a -s "-screen 0 1280x1024x24 -noreset" pvbatch plugin/scripts/render_tissues.py OUT
 Each <tissue>.vtp carries its colour and opacity as field data; enamel is translucent so the
 dentin and pulp beneath, and the preparation through them, show.
 """
