@@ -475,7 +475,7 @@ const CORTICAL_MM: f64 = 1.2;
 
 impl Phantom {
     pub fn new(spec: &PhantomSpec) -> Phantom {
-        let fdi = if crate::segment::valid_fdi(spec.tooth) { spec.tooth } else { 36 };
+        let fdi = if crate::roi::valid_fdi(spec.tooth) { spec.tooth } else { 36 };
         let (q, t) = (fdi / 10, fdi % 10);
         let upper = matches!(q, 1 | 2 | 5 | 6);
         // Left side (quadrants 2, 3): distal runs posterior and slightly lateral (+x, +y in LPS);

@@ -2,9 +2,14 @@
 //! the slab between two planes (seed 001's model reduction). Geometry stays in the patient frame.
 
 use crate::error::{Error, Result};
-use crate::segment::valid_fdi;
 use crate::volume::{LabelVolume, Volume};
 use crate::{dot, normalize, Label};
+
+/// Valid ISO 3950 tooth number (permanent 11–48, primary 51–85).
+pub fn valid_fdi(fdi: u8) -> bool {
+    let (q, t) = (fdi / 10, fdi % 10);
+    ((1..=4).contains(&q) && (1..=8).contains(&t)) || ((5..=8).contains(&q) && (1..=5).contains(&t))
+}
 
 /// Voxel index box, `min` inclusive, `max` exclusive.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]

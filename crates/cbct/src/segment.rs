@@ -52,11 +52,7 @@ impl Default for SegmentOptions {
     }
 }
 
-/// Valid ISO 3950 tooth number (permanent 11–48, primary 51–85).
-pub fn valid_fdi(fdi: u8) -> bool {
-    let (q, t) = (fdi / 10, fdi % 10);
-    ((1..=4).contains(&q) && (1..=8).contains(&t)) || ((5..=8).contains(&q) && (1..=5).contains(&t))
-}
+use crate::roi::valid_fdi;
 
 struct Grid {
     d: [usize; 3],

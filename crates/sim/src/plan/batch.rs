@@ -257,7 +257,7 @@ fn load_scan(s: &ScanEntry, table: &TissueTable) -> Result<TissueModel> {
         let request = crate::tissues::from_scan::TissuesFromScan { voxel_size_mm: s.voxel_mm, fdi: s.fdi, seed_mm: s.seed_mm, ..Default::default() };
         return Ok(request.run(&volume, table, &mut |_, _| {})?.0);
     }
-    crate::tissues::capsule::check_voxel_mm("voxel_mm", s.voxel_mm)?;
+    crate::tissues::model::check_voxel_mm("voxel_mm", s.voxel_mm)?;
     crate::tissues::capsule::CapsuleTooth::default().build(s.voxel_mm, table)
 }
 

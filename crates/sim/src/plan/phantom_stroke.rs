@@ -36,7 +36,7 @@ pub struct Outcome {
 
 impl PhantomStroke {
     pub fn validate(&self) -> Result<()> {
-        crate::tissues::capsule::check_voxel_mm("voxel size", self.voxel_size_mm)?;
+        crate::tissues::model::check_voxel_mm("voxel size", self.voxel_size_mm)?;
         Burr::round(self.burr_diameter_mm)?;
         for (which, p) in [("stroke start", self.start_mm), ("stroke end", self.end_mm)] {
             if p.iter().any(|v| !v.is_finite() || v.abs() > 100.0) {

@@ -264,7 +264,7 @@ impl PreparationRequest<'_> {
             (Some(model), _) => model,
             (None, Some(p)) => TissueModel::load(p, table)?,
             (None, None) => {
-                crate::tissues::capsule::check_voxel_mm("phantom voxel size", self.phantom_voxel_mm)?;
+                crate::tissues::model::check_voxel_mm("phantom voxel size", self.phantom_voxel_mm)?;
                 crate::tissues::capsule::CapsuleTooth::default().build(self.phantom_voxel_mm, table)?
             }
         };

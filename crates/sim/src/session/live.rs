@@ -145,7 +145,7 @@ impl LiveSession {
         let model = match &req.tissues {
             Some(path) => TissueModel::load(path, &table)?,
             None => {
-                crate::tissues::capsule::check_voxel_mm("phantom voxel size", req.phantom_voxel_mm)?;
+                crate::tissues::model::check_voxel_mm("phantom voxel size", req.phantom_voxel_mm)?;
                 CapsuleTooth::default().build(req.phantom_voxel_mm, &table)?
             }
         };

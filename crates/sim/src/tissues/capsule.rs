@@ -5,21 +5,9 @@ use std::f64::consts::PI;
 use dentsim_vdb::LevelSet;
 use glam::DVec3;
 
-use crate::error::{invalid, Result};
+use crate::error::Result;
 use crate::tissues::model::TissueModel;
 use crate::tissues::table::TissueTable;
-
-/// Voxel sizes (mm) the capsule phantom is built at: finer takes minutes, coarser loses the
-/// enamel layer.
-pub const VOXEL_RANGE_MM: std::ops::RangeInclusive<f64> = 0.01..=0.5;
-
-/// Refuses a phantom voxel size outside [`VOXEL_RANGE_MM`]; `what` names the field.
-pub fn check_voxel_mm(what: &str, voxel_mm: f64) -> Result<()> {
-    if voxel_mm.is_finite() && VOXEL_RANGE_MM.contains(&voxel_mm) {
-        return Ok(());
-    }
-    Err(invalid(what, format!("{voxel_mm} mm, expected {} ..= {} mm", VOXEL_RANGE_MM.start(), VOXEL_RANGE_MM.end())))
-}
 
 /// A capsule: the points within `radius` of the segment from −`half_length` to +`half_length` on Z.
 #[derive(Clone, Copy, Debug)]

@@ -97,7 +97,7 @@ impl TissuesFromScan {
         if !(self.voxel_size_mm.is_finite() && (0.01..=1.0).contains(&self.voxel_size_mm)) {
             return Err(invalid("voxel size", format!("{} mm, expected 0.01 to 1 mm", self.voxel_size_mm)));
         }
-        if !dentsim_cbct::segment::valid_fdi(self.fdi) {
+        if !dentsim_cbct::roi::valid_fdi(self.fdi) {
             return Err(invalid("tooth", format!("{} is not an ISO 3950 (FDI) tooth number", self.fdi)));
         }
         if !(self.margin_mm.is_finite() && self.margin_mm >= 0.0) {

@@ -56,6 +56,18 @@ impl TissueVolumes {
 }
 
 /// Every tissue's grid shares one transform (voxel size, origin at world zero).
+/// Voxel sizes (mm) a model is built at (the capsule phantom, tissues rebuilt from surfaces):
+/// finer takes minutes, coarser loses the enamel layer.
+pub const VOXEL_RANGE_MM: std::ops::RangeInclusive<f64> = 0.01..=0.5;
+
+/// Refuses a voxel size outside [`VOXEL_RANGE_MM`]; `what` names the field.
+pub fn check_voxel_mm(what: &str, voxel_mm: f64) -> Result<()> {
+    if voxel_mm.is_finite() && VOXEL_RANGE_MM.contains(&voxel_mm) {
+        return Ok(());
+    }
+    Err(invalid(what, format!("{voxel_mm} mm, expected {} ..= {} mm", VOXEL_RANGE_MM.start(), VOXEL_RANGE_MM.end())))
+}
+
 #[derive(Clone)]
 pub struct TissueModel {
     pub tissues: Vec<Tissue>,
@@ -157,7 +169,7 @@ impl TissueModel {
     /// not a tissue is an error naming the block. Conversion is OpenVDB's `meshToLevelSet`: the
     /// surface moves by well under a voxel, so volumes agree to the mesher's accuracy.
     pub fn from_surfaces(source: &str, surfaces: &[(String, dentsim_vdb::TriMesh)], voxel_mm: f64, table: &TissueTable) -> Result<Self> {
-        crate::tissues::capsule::check_voxel_mm("voxel size", voxel_mm)?;
+        check_voxel_mm("voxel size", voxel_mm)?;
         let mut model = TissueModel::new(source, None);
         for (name, mesh) in surfaces.iter().filter(|(_, m)| !m.triangles.is_empty()) {
             let Some(props) = table.get(name) else {
@@ -220,7 +232,7 @@ impl TissueModel {
             }
             if let Some(v) = number("fdi_tooth")? {
                 let fdi = (v.fract() == 0.0 && (0.0..=255.0).contains(&v)).then_some(v as u8);
-                match fdi.filter(|&f| dentsim_cbct::segment::valid_fdi(f)) {
+                match fdi.filter(|&f| dentsim_cbct::roi::valid_fdi(f)) {
                     Some(f) => model.fdi_tooth = Some(f),
                     None => return Err(file_err(format!("grid '{}' metadata 'fdi_tooth' is {v}, expected an FDI tooth number", g.name))),
                 }
