@@ -394,7 +394,7 @@ pub fn guidance_clearance(tooth: &BenchTooth, iterations: usize) -> Result<Bench
     drop(reader);
     let samples = BurrSamples::new(&Burr::round(1.0)?, 256)?;
     let params = dentsim_sim::haptics::GuidanceParams::default();
-    let mut clearance = PulpClearance::new(model, &params, samples.len())?.ok_or_else(|| dentsim_sim::error::invalid("bench tooth", "no pulp field"))?;
+    let mut clearance = PulpClearance::new(model, &params, &samples)?.ok_or_else(|| dentsim_sim::error::invalid("bench tooth", "no pulp field"))?;
     let pose = DAffine3::from_translation(horn + DVec3::new(0.0, 0.0, 0.3));
     let mut ours = Vec::with_capacity(iterations);
     let mut reading = 0.0;

@@ -74,6 +74,8 @@ pub struct PulpClearance {
     hi: DVec3,
     /// The band's half width (mm): values at or beyond it mean "at least this far".
     reach_mm: f64,
+    /// How far the burr's samples lie from its centre (mm): the head's bounding sphere.
+    head_radius: f64,
     xyz: Vec<f32>,
     values: Vec<f32>,
 }
@@ -81,7 +83,8 @@ pub struct PulpClearance {
 impl PulpClearance {
     /// The field for `model`'s tissue named `pulp`, reaching twice the threshold (so a display
     /// can show the burr nearing the pulp before it is too close); `None` without a pulp.
-    pub fn new(model: &TissueModel, params: &GuidanceParams, samples: usize) -> Result<Option<Self>> {
+    /// The buffers fit `samples` (the burr the tick reads with).
+    pub fn new(model: &TissueModel, params: &GuidanceParams, samples: &BurrSamples) -> Result<Option<Self>> {
         params.validate()?;
         let Some(pulp) = model.get("pulp") else { return Ok(None) };
         if params.thin_dentin_mm <= 0.0 {
@@ -99,7 +102,9 @@ impl PulpClearance {
             Some(b) => (field.index_to_world(b.min) - DVec3::splat(h), field.index_to_world(b.max) + DVec3::splat(h)),
             None => return Ok(None),
         };
-        Ok(Some(PulpClearance { field, lo, hi, reach_mm, xyz: vec![0.0; 3 * (samples + 1)], values: vec![0.0; samples + 1] }))
+        let n = samples.len() + 1;
+        let head_radius = samples.points.iter().map(|p| p.distance(samples.centre)).fold(0.0, f64::max);
+        Ok(Some(PulpClearance { field, lo, hi, reach_mm, head_radius, xyz: vec![0.0; 3 * n], values: vec![0.0; n] }))
     }
 
     /// How far the field reaches (mm): readings at or beyond it are reported as infinite.
@@ -112,9 +117,8 @@ impl PulpClearance {
     /// Allocation-free.
     pub fn measure(&mut self, samples: &BurrSamples, pose: &DAffine3) -> f64 {
         let centre = pose.transform_point3(samples.centre);
-        let radius = samples.points.iter().map(|p| p.distance(samples.centre)).fold(0.0, f64::max);
         let nearest = centre.clamp(self.lo, self.hi);
-        if nearest.distance_squared(centre) > radius * radius {
+        if nearest.distance_squared(centre) > self.head_radius * self.head_radius {
             return f64::INFINITY;
         }
         let n = samples.points.len().min(self.values.len().saturating_sub(1));
@@ -159,7 +163,7 @@ mod tests {
         let model = pulp_ball();
         let burr = Burr::parse("round:1.0").unwrap();
         let samples = BurrSamples::new(&burr, 256).unwrap();
-        let mut c = PulpClearance::new(&model, &GuidanceParams::default(), samples.len()).unwrap().unwrap();
+        let mut c = PulpClearance::new(&model, &GuidanceParams::default(), &samples).unwrap().unwrap();
         // Round burr: head centre 0.5 mm above the tip along +Z; tool axis along +Z.
         let at = |gap: f64| DAffine3::from_translation(DVec3::new(0.0, 0.0, 1.0 + gap));
         for gap in [0.05, 0.2, 0.45, 0.9] {
@@ -186,6 +190,7 @@ mod tests {
         assert_eq!(p.classify(f64::INFINITY, true), 0);
         assert_eq!(GuidanceParams { thin_dentin_mm: 0.0 }.classify(-1.0, true), 0);
         assert!(GuidanceParams { thin_dentin_mm: f64::NAN }.validate().is_err());
-        assert!(PulpClearance::new(&pulp_ball(), &GuidanceParams { thin_dentin_mm: 0.0 }, 16).unwrap().is_none());
+        let samples = BurrSamples::new(&Burr::parse("round:1.0").unwrap(), 16).unwrap();
+        assert!(PulpClearance::new(&pulp_ball(), &GuidanceParams { thin_dentin_mm: 0.0 }, &samples).unwrap().is_none());
     }
 }

@@ -196,7 +196,7 @@ impl HapticCore {
     /// Readies live guidance on `model` as it is now (the session's start): the pulp's distance
     /// field ([`PulpClearance`]). Without it (or without a pulp) ticks report no clearance.
     pub fn prepare_guidance(&mut self, model: &TissueModel) -> Result<()> {
-        self.clearance = PulpClearance::new(model, &self.params.guidance, self.query.samples.len())?;
+        self.clearance = PulpClearance::new(model, &self.params.guidance, &self.query.samples)?;
         Ok(())
     }
 
