@@ -1,6 +1,7 @@
-"""Progress and abort: Tissues From Scan and Dental Preparation report progress between 0 and 1
-while they work (ParaView's progress bar), and an abort during the cut stops it with an error
-saying so and empty outputs; the next run works again."""
+"""Progress and abort: Tissues From Scan, Dental Preparation and Dental Preparation Assessment
+report progress between 0 and 1 while they work (ParaView's progress bar), and an abort part-way
+(during the cut, during segmentation, during grading) stops the work there with an error saying
+so and empty outputs; the next run works again."""
 import os
 import re
 import subprocess
@@ -77,4 +78,57 @@ prep.UpdatePipeline()
 table = servermanager.Fetch(prep, idx=1)
 again = {table.GetValue(r, 0).ToString(): table.GetValue(r, 1).ToDouble() for r in range(table.GetNumberOfRows())}
 check(again == full, "runs again after the abort: %s vs %s" % (again, full))
+
+
+def table_of(proxy):
+    """The first two columns of the proxy's table output as a dict."""
+    table = servermanager.Fetch(proxy, idx=1)
+    return {table.GetValue(r, 0).ToString(): table.GetValue(r, 1).ToDouble() for r in range(table.GetNumberOfRows())}
+
+
+def aborted_run(proxy, abort_at):
+    """Runs `proxy` aborting past `abort_at`; the progress seen and the messages logged."""
+    window = vtkOutputWindow.GetInstance()
+    messages = vtkStringOutputWindow()
+    vtkOutputWindow.SetInstance(messages)
+    seen, stop = watch(proxy, abort_at=abort_at)
+    proxy.UpdatePipeline()
+    stop()
+    vtkOutputWindow.SetInstance(window)
+    return seen, messages.GetOutput()
+
+
+# Segmentation stops at its next step, not when it has finished.
+tooth.VoxelSizemm = 0.081  # a change, so it runs again
+seen, text = aborted_run(tooth, abort_at=0.05)
+check("stopped on request" in text, "the segmentation's abort is reported: %r" % text)
+partial = [p for p in seen if p < 1.0]
+check(partial and partial[-1] < 0.9, "segmentation stopped before its level sets were done: %s" % seen)
+check(servermanager.Fetch(tooth).GetNumberOfBlocks() == 0, "an aborted segmentation leaves an empty output")
+tooth.VoxelSizemm = 0.08
+tooth.UpdatePipeline()
+check(servermanager.Fetch(tooth).GetNumberOfBlocks() == 3, "segmentation runs again after the abort")
+
+# The assessment of the box against the tooth it was cut from.
+assessment = DentalPreparationAssessment(Prepared=prep, Original=tooth, TissueVoxelSizemm=0.08)
+seen, stop = watch(assessment)
+assessment.UpdatePipeline()
+stop()
+middle = [p for p in seen if 0.0 < p < 1.0]
+print("Assessment progress:", sorted(set(round(p, 2) for p in seen)), len(seen), "events")
+check(len(set(middle)) >= 3, "the assessment reports progress along the way: %s" % seen)
+rows = table_of(assessment)
+check(abs(rows["enamel removed"] / full["enamel"] - 1) < 0.05,
+      "the assessment grades the box: %s vs %s" % (rows["enamel removed"], full["enamel"]))
+assessment.TissueVoxelSizemm = 0.081
+seen, text = aborted_run(assessment, abort_at=0.05)
+check("stopped on request" in text, "the assessment's abort is reported: %r" % text)
+partial = [p for p in seen if p < 1.0]
+check(partial and partial[-1] < 0.9, "the assessment stopped part-way: %s" % seen)
+check(servermanager.Fetch(assessment).GetNumberOfPoints() == 0 and servermanager.Fetch(assessment, idx=1).GetNumberOfRows() == 0,
+      "an aborted assessment leaves empty outputs")
+assessment.TissueVoxelSizemm = 0.08
+assessment.UpdatePipeline()
+again = table_of(assessment)
+check(again == rows, "the assessment runs again after the abort: %s vs %s" % (again, rows))
 print("PASSED test_progress_abort")

@@ -222,9 +222,8 @@ mod bridge {
         fn abort(self: &SurfaceJob);
         /// Blocks until the work ends; its surfaces or its error.
         fn wait(self: &mut SurfaceJob) -> Result<Vec<TissueSurface>>;
-        /// As `tissues_from_scan`, on a thread (progress follows segmentation's steps; an abort
-        /// is honoured when segmentation returns).
-        /// `tissues_from_scan_source` on a thread.
+        /// `tissues_from_scan_source` on a thread (progress follows segmentation's steps; an
+        /// abort stops it before its next step).
         fn start_tissues_from_scan(
             geometry: &ImageGeometry,
             values: &[f32],
@@ -232,6 +231,32 @@ mod bridge {
             scan_path: &str,
             thresholds: &str,
         ) -> Result<Box<SurfaceJob>>;
+        /// `teeth_from_scan_source` on a thread (an abort stops it before its next step).
+        type TeethJob;
+        fn start_teeth_from_scan(
+            geometry: &ImageGeometry,
+            values: &[f32],
+            params: &TissuesFromScanParams,
+            scan_path: &str,
+            thresholds: &str,
+        ) -> Result<Box<TeethJob>>;
+        fn progress(self: &TeethJob) -> f64;
+        fn finished(self: &TeethJob) -> bool;
+        fn abort(self: &TeethJob);
+        fn wait(self: &mut TeethJob) -> Result<Vec<ToothSurfaces>>;
+        /// `assess_preparation_from` on a thread (an abort stops it before its next step).
+        type AssessmentJob;
+        fn start_assessment(
+            params: &AssessmentParams,
+            prepared: &[InputSurface],
+            original: &[InputSurface],
+            reference: &[InputSurface],
+            voxel_mm: f64,
+        ) -> Result<Box<AssessmentJob>>;
+        fn progress(self: &AssessmentJob) -> f64;
+        fn finished(self: &AssessmentJob) -> bool;
+        fn abort(self: &AssessmentJob);
+        fn wait(self: &mut AssessmentJob) -> Result<AssessmentResult>;
         /// The tissue table as ParaView settings: a categorical colour map for the cell array
         /// `Tissue` (each tissue's colour, opacity and name), JSON for vtkSMSettings.
         fn tissue_colour_settings() -> String;
@@ -367,9 +392,21 @@ pub fn assess_preparation_from(
     reference: &[InputSurface],
     voxel_mm: f64,
 ) -> Result<AssessmentResult, String> {
+    guarded("assess preparation", || assess_until(params, prepared, original, reference, voxel_mm, &mut |_| true))
+}
+
+/// The assessment; `go_on(fraction)` books progress and says whether to go on.
+fn assess_until(
+    params: &AssessmentParams,
+    prepared: &[InputSurface],
+    original: &[InputSurface],
+    reference: &[InputSurface],
+    voxel_mm: f64,
+    go_on: &mut dyn FnMut(f64) -> bool,
+) -> Result<AssessmentResult, String> {
     use dentsim_sim::assess::report::tissues_file;
-    use dentsim_sim::assess::{assess_as, Kind};
-    guarded("assess preparation", || {
+    use dentsim_sim::assess::{assess_until, Kind};
+    {
         // The input when connected, else the file: each error names the property.
         let load = |what: &str, input: &[InputSurface], p: &str| {
             if !input.is_empty() {
@@ -380,19 +417,25 @@ pub fn assess_preparation_from(
             }
             dentsim_sim::tissues::model::TissueModel::load(&tissues_file(std::path::Path::new(p)), &TissueTable::default()).map_err(|e| format!("{what}: {e}"))
         };
+        // Loading (inputs rebuilt as level sets) is the first quarter, grading the rest.
+        let mut step = |fraction: f64| if go_on(fraction) { Ok(()) } else { Err(format!("assessment: {}", dentsim_sim::error::STOPPED)) };
+        step(0.0)?;
         let prepared = load("Prepared Tissues", prepared, &params.prepared_path)?;
+        step(0.1)?;
         let original = load("Original Tissues", original, &params.original_path)?;
+        step(0.2)?;
         let reference = if reference.is_empty() && params.reference_path.trim().is_empty() {
             None
         } else {
             Some(load("Reference Preparation", reference, &params.reference_path)?)
         };
+        step(0.25)?;
         let kind = match (params.crown, params.use_axis) {
             (false, _) => Kind::Cavity,
             (true, false) => Kind::Crown { axis: None },
             (true, true) => Kind::Crown { axis: Some(glam::DVec3::from_array(params.axis)) },
         };
-        let a = assess_as(&prepared, &original, reference.as_ref(), kind).map_err(|e| e.to_string())?;
+        let a = assess_until(&prepared, &original, reference.as_ref(), kind, &mut |f| go_on(0.25 + 0.75 * f)).map_err(|e| e.to_string())?;
         let json = serde_json::to_string_pretty(&a).map_err(|e| e.to_string())?;
         let rows = a
             .rows()
@@ -408,7 +451,7 @@ pub fn assess_preparation_from(
             rows,
             json,
         })
-    })
+    }
 }
 
 /// One tooth's tissue surfaces from a scan already in memory (a ParaView reader's output).
@@ -421,18 +464,18 @@ pub fn tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &Tiss
 /// NIfTI/MetaImage orientation), and with grey values overriding the calibration when
 /// `thresholds` is given ("TISSUE=GREY,...").
 pub fn tissues_from_scan_source(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams, scan_path: &str, thresholds: &str) -> Result<Vec<TissueSurface>, String> {
-    guarded("tissues from scan", || segment_scan(geometry, values.to_vec(), params, scan_path, thresholds, &mut |_| {}))
+    guarded("tissues from scan", || segment_scan(geometry, values.to_vec(), params, scan_path, thresholds, &mut |_| true))
 }
 
 /// The scan (the file when `scan_path` is given, else the image) segmented into one tooth's
-/// tissue surfaces; `progress` follows the work to 1.
+/// tissue surfaces; `go_on(fraction)` follows the work to 1 and says whether to go on.
 fn segment_scan(
     geometry: &ImageGeometry,
     values: Vec<f32>,
     params: &TissuesFromScanParams,
     scan_path: &str,
     thresholds: &str,
-    progress: &mut dyn FnMut(f64),
+    go_on: &mut dyn FnMut(f64) -> bool,
 ) -> Result<Vec<TissueSurface>, String> {
     let thresholds = if thresholds.trim().is_empty() { None } else { Some(dentsim_cbct::calibrate::parse_thresholds(thresholds).map_err(|e| e.to_string())?) };
     let scan = scan_of(geometry, values, scan_path)?;
@@ -444,28 +487,38 @@ fn segment_scan(
         ..Default::default()
     };
     // Segmentation reports up to 0.9; meshing the surfaces is the rest.
-    let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, f| progress(0.9 * f)).map_err(|e| e.to_string())?;
+    let (model, _) = request.run_until(&scan, &TissueTable::default(), &mut |_, f| go_on(0.9 * f)).map_err(|e| e.to_string())?;
     let surfaces = unchanged_surfaces(&model);
-    progress(1.0);
+    go_on(1.0);
     surfaces
 }
 
 /// Every tooth in the scan, each its own object with its tissues (the scan as for
 /// [`tissues_from_scan_source`]; the seed point and FDI number are not used).
 pub fn teeth_from_scan_source(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams, scan_path: &str, thresholds: &str) -> Result<Vec<ToothSurfaces>, String> {
-    guarded("teeth from scan", || {
-        let thresholds = if thresholds.trim().is_empty() { None } else { Some(dentsim_cbct::calibrate::parse_thresholds(thresholds).map_err(|e| e.to_string())?) };
-        let scan = scan_of(geometry, values.to_vec(), scan_path)?;
-        let request = dentsim_sim::tissues::from_scan::TissuesFromScan { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, thresholds, ..Default::default() };
-        let teeth = request.run_all(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| e.to_string())?;
-        teeth
-            .iter()
-            .map(|(model, report)| {
-                let (n, found) = report.found.clone().ok_or("a tooth without its place")?;
-                Ok(ToothSurfaces { tooth: n as u32, seed_mm: found.seed, cut_by_field_of_view: found.cut_by_field_of_view, tissues: unchanged_surfaces(model)? })
-            })
-            .collect()
-    })
+    guarded("teeth from scan", || segment_teeth(geometry, values.to_vec(), params, scan_path, thresholds, &mut |_| true))
+}
+
+/// As [`segment_scan`], every tooth.
+fn segment_teeth(
+    geometry: &ImageGeometry,
+    values: Vec<f32>,
+    params: &TissuesFromScanParams,
+    scan_path: &str,
+    thresholds: &str,
+    go_on: &mut dyn FnMut(f64) -> bool,
+) -> Result<Vec<ToothSurfaces>, String> {
+    let thresholds = if thresholds.trim().is_empty() { None } else { Some(dentsim_cbct::calibrate::parse_thresholds(thresholds).map_err(|e| e.to_string())?) };
+    let scan = scan_of(geometry, values, scan_path)?;
+    let request = dentsim_sim::tissues::from_scan::TissuesFromScan { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, thresholds, ..Default::default() };
+    let teeth = request.run_all_until(&scan, &TissueTable::default(), &mut |_, f| go_on(0.9 * f)).map_err(|e| e.to_string())?;
+    teeth
+        .iter()
+        .map(|(model, report)| {
+            let (n, found) = report.found.clone().ok_or("a tooth without its place")?;
+            Ok(ToothSurfaces { tooth: n as u32, seed_mm: found.seed, cut_by_field_of_view: found.cut_by_field_of_view, tissues: unchanged_surfaces(model)? })
+        })
+        .collect()
 }
 
 /// The scan: its file through dentsim's reader when `scan_path` is given, else the image ParaView
@@ -559,6 +612,10 @@ pub struct Job<T: Send + 'static> {
 pub type SurfaceJob = Job<Vec<TissueSurface>>;
 /// A job whose result is batch report rows.
 pub type RowsJob = Job<Vec<BatchRow>>;
+/// A job whose result is every tooth's tissue surfaces.
+pub type TeethJob = Job<Vec<ToothSurfaces>>;
+/// A job whose result is an assessment.
+pub type AssessmentJob = Job<AssessmentResult>;
 
 impl<T: Send + 'static> Job<T> {
     /// Runs `work(go_on)` on a thread; `go_on(fraction)` books progress and says whether to go on.
@@ -577,7 +634,7 @@ impl<T: Send + 'static> Job<T> {
                     });
                     // Work that cannot stop part-way still ends as aborted when asked to.
                     match result {
-                        Ok(_) if s.load(Ordering::Relaxed) => Err(format!("{what}: {}", dentsim_sim::plan::prepare::ABORTED)),
+                        Ok(_) if s.load(Ordering::Relaxed) => Err(format!("{what}: {}", dentsim_sim::error::STOPPED)),
                         other => other,
                     }
                 })
@@ -625,11 +682,44 @@ pub fn start_tissues_from_scan(
     let geometry = ImageGeometry { dims: geometry.dims, spacing: geometry.spacing, origin: geometry.origin, direction: geometry.direction };
     let params = TissuesFromScanParams { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, use_seed: params.use_seed, seed_mm: params.seed_mm };
     let (values, scan_path, thresholds) = (values.to_vec(), scan_path.to_owned(), thresholds.to_owned());
-    Job::spawn("tissues from scan", move |go_on| {
-        segment_scan(&geometry, values, &params, &scan_path, &thresholds, &mut |f| {
-            go_on(f);
-        })
-    })
+    Job::spawn("tissues from scan", move |go_on| segment_scan(&geometry, values, &params, &scan_path, &thresholds, go_on))
+}
+
+pub fn start_teeth_from_scan(
+    geometry: &ImageGeometry,
+    values: &[f32],
+    params: &TissuesFromScanParams,
+    scan_path: &str,
+    thresholds: &str,
+) -> Result<Box<TeethJob>, String> {
+    let geometry = ImageGeometry { dims: geometry.dims, spacing: geometry.spacing, origin: geometry.origin, direction: geometry.direction };
+    let params = TissuesFromScanParams { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, use_seed: params.use_seed, seed_mm: params.seed_mm };
+    let (values, scan_path, thresholds) = (values.to_vec(), scan_path.to_owned(), thresholds.to_owned());
+    Job::spawn("teeth from scan", move |go_on| segment_teeth(&geometry, values, &params, &scan_path, &thresholds, go_on))
+}
+
+pub fn start_assessment(
+    params: &AssessmentParams,
+    prepared: &[InputSurface],
+    original: &[InputSurface],
+    reference: &[InputSurface],
+    voxel_mm: f64,
+) -> Result<Box<AssessmentJob>, String> {
+    let params = AssessmentParams {
+        prepared_path: params.prepared_path.clone(),
+        original_path: params.original_path.clone(),
+        reference_path: params.reference_path.clone(),
+        crown: params.crown,
+        use_axis: params.use_axis,
+        axis: params.axis,
+    };
+    let [prepared, original, reference] = [prepared, original, reference].map(owned_surfaces);
+    Job::spawn("assess preparation", move |go_on| assess_until(&params, &prepared, &original, &reference, voxel_mm, go_on))
+}
+
+/// Surfaces passed from C++, owned so that a job's thread can hold them.
+fn owned_surfaces(surfaces: &[InputSurface]) -> Vec<InputSurface> {
+    surfaces.iter().map(|s| InputSurface { name: s.name.clone(), points: s.points.clone(), triangles: s.triangles.clone() }).collect()
 }
 
 pub fn start_batch_shard(manifest: &str, out: &str, index: u32, count: u32) -> Result<Box<RowsJob>, String> {
@@ -650,7 +740,7 @@ pub fn start_preparation(
 ) -> Result<Box<SurfaceJob>, String> {
     let params = params.clone();
     let path = OwnedPath { points: points.to_vec(), orientation: orientation.to_vec(), time: time.to_vec(), rpm: rpm.to_vec(), cut: cut.to_vec() };
-    let tissues: Vec<InputSurface> = tissues.iter().map(|s| InputSurface { name: s.name.clone(), points: s.points.clone(), triangles: s.triangles.clone() }).collect();
+    let tissues = owned_surfaces(tissues);
     Job::spawn("dental preparation", move |go_on| {
         let model = if tissues.is_empty() { None } else { Some(model_from_inputs("Tissues", &tissues, tissue_voxel_mm)?) };
         prepare_owned(&params, model, &path, go_on)
@@ -1075,6 +1165,49 @@ mod tests {
         let bad = vec![InputSurface { name: "burr".into(), ..inputs[0].clone_surface() }];
         let err = start_preparation(&groove_params("round:1.0"), &bad, 0.1, &points, &orientation, &[], &[], &[]).unwrap().wait().err().unwrap();
         assert!(err.contains("Tissues block 'burr'"), "{err}");
+    }
+
+    #[test]
+    fn an_assessment_job_grades_upstream_surfaces_and_stops_when_aborted() {
+        let stroke = |start_mm: [f64; 3], end_mm: [f64; 3]| {
+            let surfaces = phantom_stroke(&StrokeParams { voxel_size_mm: 0.1, start_mm, end_mm, ..default_stroke() }).unwrap();
+            owned_surfaces(&surfaces.iter().map(|s| InputSurface { name: s.name.clone(), points: s.points.clone(), triangles: s.triangles.clone() }).collect::<Vec<_>>())
+        };
+        let defaults = default_stroke();
+        let prepared = stroke(defaults.start_mm, defaults.end_mm);
+        // A stroke that starts and ends far from the tooth leaves it as it was.
+        let original = stroke([90.0; 3], [91.0, 90.0, 90.0]);
+        let params = AssessmentParams { prepared_path: String::new(), original_path: String::new(), reference_path: String::new(), crown: false, use_axis: false, axis: [0.0; 3] };
+        let mut job = start_assessment(&params, &prepared, &original, &[], 0.1).unwrap();
+        let graded = job.wait().unwrap();
+        assert_eq!(job.progress(), 1.0);
+        let direct = assess_preparation_from(&params, &prepared, &original, &[], 0.1).unwrap();
+        assert_eq!(graded.json, direct.json, "the job grades as the direct call does");
+        let removed = graded.rows.iter().find(|r| r.criterion.contains("removed")).map(|r| r.value).unwrap_or_default();
+        assert!(removed > 0.0, "the stroke removed tissue: {:?}", graded.rows.iter().map(|r| (&r.criterion, r.value)).collect::<Vec<_>>());
+
+        let mut job = start_assessment(&params, &prepared, &original, &[], 0.1).unwrap();
+        job.abort();
+        let err = job.wait().err().expect("aborted");
+        assert!(err.contains(dentsim_sim::error::STOPPED), "{err}");
+    }
+
+    #[test]
+    fn a_segmentation_job_stops_when_aborted() {
+        use dentsim_cbct::phantom::{Phantom, PhantomSpec};
+        let scan = Phantom::new(&PhantomSpec::default()).scan();
+        // ImageGeometry's direction is VTK's matrix (row by row, index axes as columns).
+        let direction = std::array::from_fn(|i| scan.direction[i % 3][i / 3]);
+        let geometry = ImageGeometry { dims: scan.dims.map(|n| n as u32), spacing: scan.spacing, origin: scan.origin, direction };
+        let params = TissuesFromScanParams { voxel_size_mm: 0.1, fdi: 36, use_seed: false, seed_mm: [0.0; 3] };
+        let mut job = start_tissues_from_scan(&geometry, &scan.values, &params, "", "").unwrap();
+        job.abort();
+        let err = job.wait().err().expect("aborted");
+        assert!(err.contains(dentsim_sim::error::STOPPED), "{err}");
+        let mut job = start_teeth_from_scan(&geometry, &scan.values, &params, "", "").unwrap();
+        job.abort();
+        let err = job.wait().err().expect("aborted");
+        assert!(err.contains(dentsim_sim::error::STOPPED), "{err}");
     }
 
     impl InputSurface {

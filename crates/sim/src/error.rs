@@ -23,6 +23,14 @@ impl From<dentsim_atomic::Error> for Error {
     }
 }
 
+/// What a run stopped by its caller (a GUI's abort) says.
+pub const STOPPED: &str = "stopped on request";
+
+/// The error of a run its caller stopped part-way; `what` names the run.
+pub fn stopped(what: impl Into<String>) -> Error {
+    invalid(what, STOPPED)
+}
+
 /// An [`Error::Invalid`]: `what` names the input or field, `message` what was wrong with it.
 pub fn invalid(what: impl Into<String>, message: impl Into<String>) -> Error {
     Error::Invalid { what: what.into(), message: message.into() }

@@ -63,9 +63,12 @@ int vtkDentSimPreparationAssessment::RequestData(vtkInformation*, vtkInformation
   const auto prepared = surfaces(1), original = surfaces(2), reference = surfaces(3);
   const bool withReference = !reference.empty() || (this->ReferenceFile && *this->ReferenceFile);
   try {
-    const dentsim::ffi::AssessmentResult result = dentsim::ffi::assess_preparation_from(
-        params, {prepared.data(), prepared.size()}, {original.data(), original.size()},
-        {reference.data(), reference.size()}, this->TissueVoxelSize);
+    // On a thread of the core, for ParaView's progress bar and Abort.
+    const dentsim::ffi::AssessmentResult result = dentsim::RunJob(
+        this, dentsim::ffi::start_assessment(params, {prepared.data(), prepared.size()},
+                                             {original.data(), original.size()},
+                                             {reference.data(), reference.size()},
+                                             this->TissueVoxelSize));
     vtkPolyData* surface = vtkPolyData::GetData(outputVector, 0);
     vtkNew<vtkPoints> points;
     points->SetDataTypeToFloat();

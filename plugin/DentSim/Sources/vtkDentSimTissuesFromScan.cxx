@@ -139,8 +139,10 @@ int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector
   const char* thresholds = this->Thresholds ? this->Thresholds : "";
   std::vector<vtkMultiBlockDataSet*> tissueSets;  // the blocks holding tissues
   try {
+    // On a thread of the core, for ParaView's progress bar and Abort.
     if (this->AllTeeth) {
-      const auto teeth = dentsim::ffi::teeth_from_scan_source(geometry, grey, params, scanFile, thresholds);
+      const auto teeth = dentsim::RunJob(
+          this, dentsim::ffi::start_teeth_from_scan(geometry, grey, params, scanFile, thresholds));
       output->SetNumberOfBlocks(static_cast<unsigned int>(teeth.size()));
       unsigned int b = 0;
       for (const auto& tooth : teeth) {
@@ -154,7 +156,6 @@ int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector
         ++b;
       }
     } else {
-      // On a thread of the core, for ParaView's progress bar and Abort.
       dentsim::FillTissueBlocks(
           dentsim::RunJob(this, dentsim::ffi::start_tissues_from_scan(geometry, grey, params, scanFile, thresholds)),
           output);

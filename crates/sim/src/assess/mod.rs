@@ -206,6 +206,14 @@ pub fn assess(prepared: &TissueModel, original: &TissueModel, reference: Option<
 
 /// [`assess`] a preparation of a given [`Kind`].
 pub fn assess_as(prepared: &TissueModel, original: &TissueModel, reference: Option<&TissueModel>, kind: Kind) -> Result<Assessment> {
+    assess_until(prepared, original, reference, kind, &mut |_| true)
+}
+
+/// [`assess_as`], calling `go_on(fraction)` between its steps; when it answers false the
+/// assessment stops there with an error ([`crate::error::STOPPED`]): how a GUI's abort reaches it.
+pub fn assess_until(prepared: &TissueModel, original: &TissueModel, reference: Option<&TissueModel>, kind: Kind, go_on: &mut dyn FnMut(f64) -> bool) -> Result<Assessment> {
+    let mut step = |fraction: f64| if go_on(fraction) { Ok(()) } else { Err(crate::error::stopped("assessment")) };
+    step(0.0)?;
     let h = prepared.voxel_size().ok_or_else(|| invalid("prepared model", "has no tissues"))?;
     for (what, m) in [("original model", Some(original)), ("reference model", reference)] {
         if let Some(m) = m {
@@ -233,9 +241,13 @@ pub fn assess_as(prepared: &TissueModel, original: &TissueModel, reference: Opti
         };
         tissues.insert(name.clone(), TissueFigures { removed_mm3: before.grid.volume() - here, overcut_mm3: overcut, undercut_mm3: undercut });
     }
+    step(0.15)?;
     let prepared_tooth = Tooth::of(prepared, "prepared model")?;
+    step(0.3)?;
     let original_tooth = Tooth::of(original, "original model")?;
+    step(0.45)?;
     let reference_tooth = reference.map(|r| Tooth::of(r, "reference model")).transpose()?;
+    step(0.6)?;
     let mut prepared_tooth_readers = prepared_tooth.readers();
     let mesh = drop_unused_points(prepared_tooth.mesh.clone());
     let points: Vec<glam::DVec3> = mesh.points.iter().map(|p| p.as_dvec3()).collect();
@@ -250,6 +262,7 @@ pub fn assess_as(prepared: &TissueModel, original: &TissueModel, reference: Opti
     let cut_depth: Vec<f64> = points.iter().map(|p| (-signed(&original_near, *p, &mut original_readers)).max(0.0)).collect();
     let cut: Vec<bool> = cut_depth.iter().map(|d| *d > tol).collect();
     let cut_surface_points = cut.iter().filter(|c| **c).count();
+    step(0.7)?;
 
     let mut deviation = vec![0f64; points.len()];
     let deviation_mm = match &reference_tooth {
@@ -270,6 +283,7 @@ pub fn assess_as(prepared: &TissueModel, original: &TissueModel, reference: Opti
         None => None,
     };
 
+    step(0.8)?;
     // The pulp: exposure where the prepared surface runs inside the original pulp, and the
     // thinnest dentin between the cut surface and the pulp elsewhere.
     let (mut min_dentin, mut exposed_area) = (None, 0.0);
@@ -297,6 +311,7 @@ pub fn assess_as(prepared: &TissueModel, original: &TissueModel, reference: Opti
         }
     }
     let pulp_exposed = exposed_area > 0.0;
+    step(0.9)?;
     let crown = match kind {
         Kind::Cavity => None,
         Kind::Crown { axis } => {
@@ -332,6 +347,8 @@ pub fn assess_as(prepared: &TissueModel, original: &TissueModel, reference: Opti
         cut_depth_mm: cut_depth.iter().map(|d| *d as f32).collect(),
         mesh,
     };
+    // Done: the answer no longer matters.
+    go_on(1.0);
     Ok(Assessment { tissues, deviation_mm, min_remaining_dentin_mm: min_dentin, pulp_exposed, pulp_exposed_area_mm2: exposed_area, crown, cut_surface_points, grades, session: None, surface })
 }
 

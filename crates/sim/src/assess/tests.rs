@@ -202,3 +202,31 @@ fn walls_that_flare_toward_the_occlusal_end_are_an_undercut() {
     assert!(c.undercut && c.undercut_area_mm2 > 10.0, "{c:?}");
     close(c.taper_deg, -8.0, 0.5, "total occlusal convergence");
 }
+
+#[test]
+fn an_assessment_reports_its_progress_and_stops_when_asked() {
+    let original = tooth(None);
+    let prepared = tooth(Some((1.0, 0.5)));
+    let mut seen = Vec::new();
+    let a = assess_until(&prepared, &original, Some(&prepared), Kind::Cavity, &mut |f| {
+        seen.push(f);
+        true
+    })
+    .unwrap();
+    assert!(seen.windows(2).all(|w| w[0] < w[1]) && seen.len() >= 5 && seen[0] == 0.0 && seen.last() == Some(&1.0), "progress grows step by step to 1: {seen:?}");
+    let whole = assess_as(&prepared, &original, Some(&prepared), Kind::Cavity).unwrap();
+    assert_eq!(serde_json::to_string(&a).unwrap(), serde_json::to_string(&whole).unwrap(), "watching changes nothing");
+
+    // Stopped at each step before the end in turn: an error saying so, and no step after it.
+    for stop_at in seen.iter().copied().filter(|f| *f < 1.0) {
+        let mut after = Vec::new();
+        let err = assess_until(&prepared, &original, Some(&prepared), Kind::Cavity, &mut |f| {
+            after.push(f);
+            f < stop_at
+        })
+        .err()
+        .unwrap_or_else(|| panic!("stopped at {stop_at}"));
+        assert!(err.to_string().contains(crate::error::STOPPED), "{err}");
+        assert_eq!(after.last(), Some(&stop_at), "nothing after the stop: {after:?}");
+    }
+}

@@ -11,7 +11,7 @@ use dentsim_cbct::{calibrate, crop, crop_labels, enclosed_volume, find_teeth, se
 use dentsim_vdb::{DenseVolume, LevelSet};
 use serde::Serialize;
 
-use crate::error::{invalid, Error, Result};
+use crate::error::{invalid, stopped, Error, Result};
 use crate::tissues::model::TissueModel;
 use crate::tissues::table::TissueTable;
 
@@ -115,14 +115,23 @@ impl TissuesFromScan {
 
     /// Runs every step; `progress(step, fraction)` follows the work.
     pub fn run(&self, scan: &Volume, table: &TissueTable, progress: &mut dyn FnMut(&str, f64)) -> Result<(TissueModel, ScanReport)> {
+        self.run_until(scan, table, &mut |step, f| {
+            progress(step, f);
+            true
+        })
+    }
+
+    /// As [`Self::run`]; when `go_on(step, fraction)` answers false the run stops before its
+    /// next step with an error ([`crate::error::STOPPED`]): how a GUI's abort reaches it.
+    pub fn run_until(&self, scan: &Volume, table: &TissueTable, go_on: &mut dyn FnMut(&str, f64) -> bool) -> Result<(TissueModel, ScanReport)> {
         self.validate()?;
         let mut seconds = Timings::default();
 
-        progress("calibrating grey values", 0.0);
+        step(go_on, "calibrating grey values", 0.0)?;
         let clock = Instant::now();
         let calibration = self.calibrate(scan)?;
         seconds.calibrate = clock.elapsed().as_secs_f64();
-        self.run_calibrated(scan, table, calibration, seconds, progress)
+        self.run_calibrated(scan, table, calibration, seconds, go_on)
     }
 
     fn calibrate(&self, scan: &Volume) -> Result<Calibration> {
@@ -136,13 +145,21 @@ impl TissuesFromScan {
     /// Every tooth in the scan, each its own object ([`find_teeth`]), calibrated once; the
     /// point and FDI number are not used (the teeth are numbered by size, not identified).
     pub fn run_all(&self, scan: &Volume, table: &TissueTable, progress: &mut dyn FnMut(&str, f64)) -> Result<Vec<(TissueModel, ScanReport)>> {
+        self.run_all_until(scan, table, &mut |step, f| {
+            progress(step, f);
+            true
+        })
+    }
+
+    /// As [`Self::run_all`], stopping as [`Self::run_until`] does.
+    pub fn run_all_until(&self, scan: &Volume, table: &TissueTable, go_on: &mut dyn FnMut(&str, f64) -> bool) -> Result<Vec<(TissueModel, ScanReport)>> {
         self.validate()?;
         let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
-        progress("calibrating grey values", 0.0);
+        step(go_on, "calibrating grey values", 0.0)?;
         let clock = Instant::now();
         let calibration = self.calibrate(scan)?;
         let calibrate_s = clock.elapsed().as_secs_f64();
-        progress("finding the teeth", 0.05);
+        step(go_on, "finding the teeth", 0.05)?;
         let teeth = find_teeth(scan, &calibration).map_err(cbct)?;
         if teeth.is_empty() {
             return Err(invalid(format!("scan {}", scan.source.path), "no tooth (hard tissue with enamel) found"));
@@ -156,7 +173,7 @@ impl TissuesFromScan {
             // surface refinement and the lesion search), not in the whole scan.
             let region = index_box_around(scan, tooth.min, tooth.max, ALL_TEETH_MARGIN_MM);
             let part = crop(scan, &region).map_err(cbct)?;
-            let (mut model, mut report) = one.run_calibrated(&part, table, calibration.clone(), seconds, &mut |step, f| progress(&format!("tooth {}: {step}", i + 1), (i as f64 + f) / count))?;
+            let (mut model, mut report) = one.run_calibrated(&part, table, calibration.clone(), seconds, &mut |step, f| go_on(&format!("tooth {}: {step}", i + 1), (i as f64 + f) / count))?;
             report.scan_dims = scan.dims;
             for c in 0..3 {
                 report.crop_min[c] += region.min[c];
@@ -171,9 +188,9 @@ impl TissuesFromScan {
         Ok(out)
     }
 
-    fn run_calibrated(&self, scan: &Volume, table: &TissueTable, calibration: Calibration, mut seconds: Timings, progress: &mut dyn FnMut(&str, f64)) -> Result<(TissueModel, ScanReport)> {
+    fn run_calibrated(&self, scan: &Volume, table: &TissueTable, calibration: Calibration, mut seconds: Timings, go_on: &mut dyn FnMut(&str, f64) -> bool) -> Result<(TissueModel, ScanReport)> {
         let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
-        progress("segmenting", 0.1);
+        step(go_on, "segmenting", 0.1)?;
         let clock = Instant::now();
         let seed = self.seed_mm.unwrap_or_else(|| centre_of(scan));
         let options = SegmentOptions {
@@ -183,7 +200,7 @@ impl TissuesFromScan {
         let labels = segment(scan, &calibration, &options).map_err(cbct)?;
         seconds.segment = clock.elapsed().as_secs_f64();
 
-        progress("cropping to the tooth", 0.4);
+        step(go_on, "cropping to the tooth", 0.4)?;
         let clock = Instant::now();
         let region = tooth_box(&labels, self.fdi, None, self.margin_mm).map_err(cbct)?;
         let tooth_scan = crop(scan, &region).map_err(cbct)?;
@@ -199,7 +216,7 @@ impl TissuesFromScan {
         let mut built = 0.0;
         let grids = builder.build(&mut |name| {
             built += 1.0;
-            progress(&format!("level set: {name}"), 0.5 + 0.1 * built);
+            go_on(&format!("level set: {name}"), 0.5 + 0.1 * built)
         })?;
         for (label, grid) in grids {
             let fit = builder.fits.iter().find(|(l, _)| *l == label).map(|(_, f)| f.clone());
@@ -221,7 +238,7 @@ impl TissuesFromScan {
         if model.tissues.is_empty() {
             return Err(invalid(format!("tooth {}", self.fdi), "no enamel, dentin or pulp found in the scan"));
         }
-        progress("done", 1.0);
+        go_on("done", 1.0);
         let report = ScanReport {
             fdi: self.fdi,
             fdi_note: FDI_NOTE.replace("{fdi}", &self.fdi.to_string()),
@@ -467,9 +484,11 @@ impl NestedBuilder<'_> {
         Ok(LevelSet::from_dense(&dense, iso, inside_above, self.voxel_size_mm, 3.0)?)
     }
 
-    fn build(&mut self, progress: &mut dyn FnMut(&str)) -> Result<Vec<(Label, LevelSet)>> {
+    /// The tissues' level sets; `go_on(step)` answering false stops before the next step.
+    fn build(&mut self, go_on: &mut dyn FnMut(&str) -> bool) -> Result<Vec<(Label, LevelSet)>> {
         use Label::{Caries, Dentin, Enamel, Pulp};
-        progress("pulp and caries");
+        let mut step = |name: &str| if go_on(name) { Ok(()) } else { Err(stopped("segmentation")) };
+        step("pulp and caries")?;
         let mut pulp = self.union(&[Pulp])?;
         if let Some(grid) = pulp.as_mut() {
             if let Some(fit) = self.match_partial_volume(grid, Pulp)? {
@@ -477,9 +496,9 @@ impl NestedBuilder<'_> {
             }
         }
         let caries = self.union(&[Caries])?;
-        progress("dentin");
+        step("dentin")?;
         let core = self.union(&[Dentin, Pulp, Caries])?;
-        progress("enamel");
+        step("enamel")?;
         let tooth = self.union(&[Enamel, Dentin, Pulp, Caries])?;
         let mut out = Vec::new();
         if let (Some(mut enamel), Some(core)) = (tooth, core.as_ref()) {
@@ -557,4 +576,13 @@ fn face_neighbours(n: usize, [nx, ny, nz]: [usize; 3]) -> [Option<usize>; 6] {
         (k > 0).then(|| n - nx * ny),
         (k + 1 < nz).then(|| n + nx * ny),
     ]
+}
+
+/// Books `name` at `fraction` with `go_on`; an error when it says stop.
+fn step(go_on: &mut dyn FnMut(&str, f64) -> bool, name: &str, fraction: f64) -> Result<()> {
+    if go_on(name, fraction) {
+        Ok(())
+    } else {
+        Err(stopped("segmentation"))
+    }
 }
