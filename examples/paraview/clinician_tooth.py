@@ -78,6 +78,56 @@ def travel(a, b, cut=0):
             for i in range(1, n + 1)]
 
 
+def block_points(blocks, name):
+    """The points of the block called `name` (x, y, z)."""
+    for i in range(blocks.GetNumberOfBlocks()):
+        if blocks.GetMetaData(i).Get(blocks.NAME()) == name:
+            data = blocks.GetBlock(i)
+            return [data.GetPoint(k) for k in range(data.GetNumberOfPoints())]
+    return []
+
+
+def outline(points, z0, z1):
+    """The convex outline (counter-clockwise x, y) of the points between heights z0 and z1."""
+    hull = []
+    for p in sorted({(round(x, 3), round(y, 3)) for x, y, z in points if z0 <= z <= z1}):
+        hull.append(p)  # Andrew's monotone chain, lower then upper half
+    lower, upper = [], []
+    for chain, seq in ((lower, hull), (upper, reversed(hull))):
+        for p in seq:
+            while len(chain) >= 2 and ((chain[-1][0] - chain[-2][0]) * (p[1] - chain[-2][1])
+                                       - (chain[-1][1] - chain[-2][1]) * (p[0] - chain[-2][0])) <= 0:
+                chain.pop()
+            chain.append(p)
+    return lower[:-1] + upper[:-1]
+
+
+def around(hull, inset, z, step=0.2):
+    """Poses every `step` mm once around the convex outline, moved `inset` mm inward."""
+    n = len(hull)
+    poses = []
+    for i in range(n):
+        (x0, y0), (x1, y1) = hull[i], hull[(i + 1) % n]
+        length = math.hypot(x1 - x0, y1 - y0)
+        if length == 0:
+            continue
+        nx, ny = (y1 - y0) / length, -(x1 - x0) / length  # outward for a counter-clockwise outline
+        for k in range(max(1, int(length / step))):
+            f = k * step / length
+            poses.append((x0 + f * (x1 - x0) - inset * nx, y0 + f * (y1 - y0) - inset * ny, z, 1))
+    return poses + poses[:1]
+
+
+def rings(hull, depth, radius, z):
+    """Rings around the outline that cut it back to `depth` mm inside with a burr of `radius`:
+    the innermost leaves the wall, each next one 1.6 radii further out, until one clears it."""
+    out, inset = [], depth - radius
+    while inset > -radius:
+        out.append(around(hull, inset, z))
+        inset -= 1.6 * radius
+    return out
+
+
 def entry(x, y, z):
     above = top + 1.0
     return [(x, y, above, 0)] + [(x, y, above + (z - above) * i / 10.0, 1) for i in range(1, 11)]
@@ -88,19 +138,30 @@ depth = top - 2.0
 box = raster(cx - 2.0, cx + 2.0, cy - 1.5, cy + 1.5, depth, 0.5)
 class1 = write_path("class1.csv", entry(box[0][0], box[0][1], depth) + box + [(box[-1][0], box[-1][1], top + 1.0, 0)])
 
-# Crown: 1.5 mm occlusal reduction, then axial reduction around the tooth with a round-ended
-# taper (chamfer) down to a finish line 6 mm below the cusp tips.
+# Crown: 1.5 mm occlusal reduction, then axial reduction following the tooth's own outline with a
+# round-ended taper (ISO taper, 2° half-angle, its axis upright): rings with the tip on the finish
+# line 6 mm below the cusp tips cut a 0.8 mm chamfer, rings 1 mm higher take the axial wall 1.2 mm
+# in from the height of contour. The rings run around the convex outline of the tooth's surface at
+# those heights, from the wall outward until the burr clears the outline.
 occlusal = raster(enamel[0] - 0.5, enamel[1] + 0.5, enamel[2] - 0.5, enamel[3] + 0.5, top - 1.5, 0.8)
 finish = top - 6.0
-ring = [(cx + (half_x - 0.4) * math.cos(2 * math.pi * i / 120), cy + (half_y - 0.4) * math.sin(2 * math.pi * i / 120), finish, 1)
-        for i in range(121)]
-outside = (cx + half_x + 1.5, cy, finish)  # beside the tooth at the finish line: air
+tip_radius = 0.4  # the taper's radius near its rounded tip (0.7 mm less 8 mm × tan 2°)
+surface_points = [p for name in ("enamel", "dentin") for p in block_points(servermanager.Fetch(tooth), name)]
+margin = rings(outline(surface_points, finish - 0.25, finish + 0.25), 0.8, tip_radius, z=finish)
+axial = rings(outline(surface_points, finish + 1.0, top - 1.5), 1.2, tip_radius, z=finish + 1.0)
+outside = (cx + half_x + 2.0, cy, finish)  # beside the tooth at the finish line: air
 poses = entry(occlusal[0][0], occlusal[0][1], top - 1.5) + occlusal
 poses += travel(poses[-1][:3], (poses[-1][0], poses[-1][1], top + 1.0))
 poses += travel(poses[-1][:3], (outside[0], outside[1], top + 1.0))
 poses += travel(poses[-1][:3], outside)
-poses += travel(outside, ring[0][:3], cut=1) + ring
-poses += travel(ring[-1][:3], outside) + travel(outside, (outside[0], outside[1], top + 1.0))
+for ring in margin + axial:
+    # Enter from the side: begin where the ring passes nearest the point outside.
+    first = min(range(len(ring) - 1), key=lambda i: math.dist(ring[i][:2], outside[:2]))
+    ring = ring[first:-1] + ring[:first + 1]
+    start = (outside[0], outside[1], ring[0][2])
+    poses += travel(poses[-1][:3], start) + travel(start, ring[0][:3], cut=1) + ring
+    poses += travel(ring[-1][:3], start)
+poses += travel(poses[-1][:3], (outside[0], outside[1], top + 1.0))
 crown = write_path("crown.csv", poses)
 
 cavity = DentalPreparation(registrationName="Class I cavity", Tissues=tooth, TissueVoxelSizemm=args.voxel,
