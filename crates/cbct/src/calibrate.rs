@@ -434,26 +434,87 @@ impl Coarse {
         Some((median(&mut dd), median(&mut de)))
     }
 
+    /// The medium (grey at most `t1`) around the tooth: reached from the grid's border through
+    /// medium at least three voxels wide, then grown back by a voxel. Medium the tooth encloses
+    /// (an empty pulp chamber, a canal open at the apex by less than that) is not.
+    fn outside(&self, t1: f64) -> Vec<bool> {
+        let [nx, ny, nz] = self.dims;
+        let medium: Vec<bool> = self.values.iter().map(|&v| v as f64 <= t1).collect();
+        let neighbours = |n: usize| {
+            let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
+            [
+                (i > 0).then(|| n - 1),
+                (i + 1 < nx).then(|| n + 1),
+                (j > 0).then(|| n - nx),
+                (j + 1 < ny).then(|| n + nx),
+                (k > 0).then(|| n - nx * ny),
+                (k + 1 < nz).then(|| n + nx * ny),
+            ]
+        };
+        // Past the grid's border counts as medium.
+        let wide: Vec<bool> = (0..medium.len()).map(|n| medium[n] && neighbours(n).iter().all(|m| m.map_or(true, |m| medium[m]))).collect();
+        let on_border = |n: usize| neighbours(n).iter().any(Option::is_none);
+        let mut reached = vec![false; medium.len()];
+        let mut queue: std::collections::VecDeque<usize> = (0..medium.len()).filter(|&n| wide[n] && on_border(n)).collect();
+        for &n in &queue {
+            reached[n] = true;
+        }
+        while let Some(n) = queue.pop_front() {
+            for m in neighbours(n).into_iter().flatten() {
+                if wide[m] && !reached[m] {
+                    reached[m] = true;
+                    queue.push_back(m);
+                }
+            }
+        }
+        (0..medium.len()).map(|n| medium[n] && (reached[n] || neighbours(n).into_iter().flatten().any(|m| reached[m]))).collect()
+    }
+
     /// Tests a proposal (medium, dentin, enamel): at each 6-neighbour contact of an enamel voxel
     /// with a dentin voxel (not one touching the medium: that is the partial-volume rim where
     /// enamel meets the outside), walks away from the contact on each side along the axis to the
     /// medium (at most 4 mm); the dentin lies deeper when its walk is the longer.
-    fn layering(&self, [m, d, e]: [f64; 3]) -> Layering {
+    ///
+    /// Read twice, the better reading kept: with every medium voxel as the medium, and with the
+    /// medium the tooth encloses (an empty pulp chamber of an extracted tooth: walks from the
+    /// dentin would end in it) read as inside. The first alone misreads teeth with an empty
+    /// pulp; the second alone misses outside medium walled in by bone in a jaw.
+    fn layering(&self, proposal: [f64; 3]) -> Layering {
+        let all = vec![true; self.values.len()];
+        let a = self.layering_with(proposal, &all);
+        let b = self.layering_with(proposal, &self.outside(0.5 * (proposal[0] + proposal[1])));
+        if b.score() > a.score() {
+            b
+        } else {
+            a
+        }
+    }
+
+    fn layering_with(&self, [m, d, e]: [f64; 3], outside: &[bool]) -> Layering {
         let (t1, t2) = (0.5 * (m + d), 0.5 * (d + e));
         let [nx, ny, nz] = self.dims;
-        let class = |v: f32| -> u8 {
-            let v = v as f64;
-            if v <= t1 {
-                0
-            } else if v <= t2 {
-                1
-            } else {
-                2
-            }
-        };
-        let at = |i: [isize; 3]| -> Option<u8> {
-            ((0..3).all(|c| i[c] >= 0 && (i[c] as usize) < self.dims[c])).then(|| class(self.values[i[0] as usize + nx * (i[1] as usize + ny * i[2] as usize)]))
-        };
+        // 0 the medium around the tooth, 1 dentin, 2 enamel, 3 medium enclosed by the tooth:
+        // walks go on through it, and it is no surface.
+        let classes: Vec<u8> = self
+            .values
+            .par_iter()
+            .zip(outside)
+            .map(|(&v, &out)| {
+                let v = v as f64;
+                if v <= t1 {
+                    if out {
+                        0
+                    } else {
+                        3
+                    }
+                } else if v <= t2 {
+                    1
+                } else {
+                    2
+                }
+            })
+            .collect();
+        let at = |i: [isize; 3]| -> Option<u8> { ((0..3).all(|c| i[c] >= 0 && (i[c] as usize) < self.dims[c])).then(|| classes[i[0] as usize + nx * (i[1] as usize + ny * i[2] as usize)]) };
         let walk = |from: [isize; 3], axis: usize, dir: isize| -> f64 {
             let cap = (4.0 / self.spacing[axis]).ceil() as isize;
             let mut p = from;

@@ -1,0 +1,133 @@
+"""A tooth dentsim has never seen, made the way another group would make a test scan: numpy shapes
+(a superellipsoid crown with its enamel cap, a conical root, a pulp chamber with its canal), grey
+values in the scanner's own units, partial volume, blur and noise, written by nibabel (NIfTI) or
+pydicom (a DICOM series). Nothing here comes from dentsim's phantom.
+
+    python3 foreign_tooth.py OUT CASE
+
+CASE: jaw (in bone and soft tissue, tilted 15 degrees, NIfTI), air (an extracted tooth on a wax
+block, in air, DICOM series, grey values signed and offset), or water (in water, anisotropic
+voxels, NIfTI). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+true volume of each tissue (mm^3).
+"""
+import json
+import math
+import os
+import sys
+
+import numpy as np
+
+OUT, CASE = sys.argv[1], sys.argv[2]
+rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13}[CASE])
+
+# Grid in the tooth's own frame (mm): z along the tooth, occlusal up; fine grid for the truth and
+# the partial volume, averaged into the scan's voxels.
+spacing = {"jaw": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3)}[CASE]
+FINE = 3  # sub-samples per voxel and axis
+extent = ((-7.0, 7.0), (-7.0, 7.0), (-16.0, 10.0))
+dims = [int(round((hi - lo) / s)) for (lo, hi), s in zip(extent, spacing)]
+
+
+def fine_axis(axis):
+    lo, s = extent[axis][0], spacing[axis]
+    return lo + (np.arange(dims[axis] * FINE) + 0.5) * s / FINE
+
+
+x, y, z = np.meshgrid(fine_axis(0), fine_axis(1), fine_axis(2), indexing="ij", sparse=True)
+
+
+def superellipsoid(cx, cy, cz, a, b, c, p):
+    return np.abs((x - cx) / a) ** p + np.abs((y - cy) / b) ** p + np.abs((z - cz) / c) ** p <= 1.0
+
+
+# Crown: a rounded box 10 x 9 x 8 mm, its cemento-enamel junction at z = 0; enamel 1.4 mm thick on
+# the sides and 1.8 mm over the occlusal table; the root a cone to its apex 13 mm down.
+crown = superellipsoid(0.0, 0.0, 3.0, 5.0, 4.5, 4.5, 2.6) & (z >= -0.5)
+core = superellipsoid(0.0, 0.0, 2.6, 3.6, 3.1, 3.9, 2.6)
+radius = lambda top, bottom: top + (bottom - top) * np.clip(-z / 13.0, 0.0, 1.0)  # noqa: E731
+root = ((x / radius(3.8, 0.9)) ** 2 + (y / radius(3.3, 0.8)) ** 2 <= 1.0) & (z <= 0.0) & (z >= -13.0)
+tooth = crown | root
+enamel = crown & ~core & (z >= 0.0)
+pulp = superellipsoid(0.0, 0.0, 2.2, 2.0, 1.7, 1.6, 2.2) | ((x ** 2 + y ** 2 <= 0.35 ** 2) & (z >= -12.0) & (z <= 2.2))
+pulp &= tooth & ~enamel
+dentin = tooth & ~enamel & ~pulp
+
+# Grey values in the scanner's units (not HU): each case its own scale and offset.
+grey = {
+    "jaw": dict(air=-1000, soft=40, bone=1100, dentin=1900, enamel=3000, pulp=40, scale=1.0, offset=0),
+    "air": dict(air=-1000, wax=-80, dentin=1750, enamel=2800, pulp=-1000, scale=0.6, offset=-300),
+    "water": dict(air=-1000, water=0, dentin=1800, enamel=2900, pulp=0, scale=2.0, offset=5000),
+}[CASE]
+if CASE == "jaw":
+    bone = (z <= -1.5) & (np.abs(x) <= 6.5) & (np.abs(y) <= 9.0)
+    medium = np.where(bone, grey["bone"], np.where(z <= 3.0, grey["soft"], grey["air"]))
+elif CASE == "air":
+    medium = np.where(z <= -9.0, grey["wax"], grey["air"]) + 0 * x * y  # root tip in a wax block
+else:
+    medium = np.full((1, 1, 1), grey["water"]) + 0 * x * y * z
+values = np.where(enamel, grey["enamel"], np.where(dentin, grey["dentin"], np.where(pulp, grey["pulp"], medium)))
+values = values.astype(np.float32)
+voxel_mm3 = np.prod(spacing) / FINE ** 3
+truth = {name: float(mask.sum() * voxel_mm3) for name, mask in (("enamel", enamel), ("dentin", dentin), ("pulp", pulp))}
+del crown, core, root, tooth, enamel, pulp, dentin, medium
+
+# Partial volume (average of the sub-samples), then the scanner's blur and noise.
+scan = values.reshape(dims[0], FINE, dims[1], FINE, dims[2], FINE).mean(axis=(1, 3, 5))
+del values
+sigma_mm = 0.2
+freq = np.meshgrid(*[np.fft.fftfreq(n, d=s) for n, s in zip(dims, spacing)], indexing="ij", sparse=True)
+transfer = np.exp(-2.0 * math.pi ** 2 * sigma_mm ** 2 * sum(f ** 2 for f in freq))
+scan = np.real(np.fft.ifftn(np.fft.fftn(scan) * transfer)).astype(np.float32)
+scan += rng.normal(0.0, 35.0, scan.shape).astype(np.float32)
+scan = scan * grey["scale"] + grey["offset"]
+
+# Placement in the patient (LPS mm): tilted for the jaw, about an arbitrary origin.
+tilt = math.radians(15.0 if CASE == "jaw" else 0.0)
+rotation = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(tilt), -math.sin(tilt)], [0.0, math.sin(tilt), math.cos(tilt)]])
+centre_of_first = np.array([lo + s / 2.0 for (lo, _), s in zip(extent, spacing)])
+shift = np.array([31.5, -12.25, 140.0])
+origin = rotation @ centre_of_first + shift
+inside = (rotation @ np.array([0.0, 0.0, -4.0]) + shift).tolist()  # in the root's dentin under the crown
+
+os.makedirs(OUT, exist_ok=True)
+if CASE == "air":
+    import pydicom
+    from pydicom.dataset import FileDataset, FileMetaDataset
+    from pydicom.uid import ExplicitVRLittleEndian, generate_uid
+
+    path = os.path.join(OUT, "series")
+    os.makedirs(path, exist_ok=True)
+    stored = np.clip(np.round(scan), -32768, 32767).astype(np.int16)
+    series, study, frame = generate_uid(), generate_uid(), generate_uid()
+    for k in range(dims[2]):
+        meta = FileMetaDataset()
+        meta.MediaStorageSOPClassUID = "1.2.840.10008.5.1.4.1.1.2"
+        meta.MediaStorageSOPInstanceUID = generate_uid()
+        meta.TransferSyntaxUID = ExplicitVRLittleEndian
+        ds = FileDataset(None, {}, file_meta=meta, preamble=b"\0" * 128)
+        ds.SOPClassUID, ds.SOPInstanceUID = meta.MediaStorageSOPClassUID, meta.MediaStorageSOPInstanceUID
+        ds.Modality, ds.SeriesInstanceUID, ds.StudyInstanceUID, ds.FrameOfReferenceUID = "CT", series, study, frame
+        ds.InstanceNumber = k + 1
+        ds.ImagePositionPatient = [float(v) for v in origin + rotation @ np.array([0.0, 0.0, k * spacing[2]])]
+        ds.ImageOrientationPatient = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        ds.PixelSpacing = [spacing[1], spacing[0]]  # row spacing (y), column spacing (x)
+        ds.SliceThickness = spacing[2]
+        ds.Rows, ds.Columns = dims[1], dims[0]
+        ds.SamplesPerPixel, ds.PhotometricInterpretation = 1, "MONOCHROME2"
+        ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 16, 16, 15, 1
+        ds.RescaleIntercept, ds.RescaleSlope = 0, 1
+        ds.PixelData = np.ascontiguousarray(stored[:, :, k].T).tobytes()  # rows along y, columns along x
+        ds.save_as(os.path.join(path, "slice%04d.dcm" % k), write_like_original=False)
+else:
+    import nibabel
+
+    # NIfTI is RAS: LPS (x, y) negated.
+    affine = np.eye(4)
+    affine[:3, :3] = np.diag([-1.0, -1.0, 1.0]) @ rotation @ np.diag(spacing)
+    affine[:3, 3] = np.diag([-1.0, -1.0, 1.0]) @ origin
+    path = os.path.join(OUT, "tooth.nii.gz")
+    image = nibabel.Nifti1Image(scan.astype(np.int16 if CASE == "jaw" else np.float32), affine)
+    image.set_qform(affine, code=1)
+    image.set_sform(affine, code=1)
+    nibabel.save(image, path)
+print(json.dumps({"path": path, "inside": inside, "truth": truth}))
