@@ -440,17 +440,7 @@ impl Coarse {
     fn outside(&self, t1: f64) -> Vec<bool> {
         let [nx, ny, nz] = self.dims;
         let medium: Vec<bool> = self.values.iter().map(|&v| v as f64 <= t1).collect();
-        let neighbours = |n: usize| {
-            let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
-            [
-                (i > 0).then(|| n - 1),
-                (i + 1 < nx).then(|| n + 1),
-                (j > 0).then(|| n - nx),
-                (j + 1 < ny).then(|| n + nx),
-                (k > 0).then(|| n - nx * ny),
-                (k + 1 < nz).then(|| n + nx * ny),
-            ]
-        };
+        let neighbours = |n: usize| crate::volume::face_neighbours(n, [nx, ny, nz]);
         // Past the grid's border counts as medium.
         let wide: Vec<bool> = (0..medium.len()).map(|n| medium[n] && neighbours(n).iter().all(|m| m.map_or(true, |m| medium[m]))).collect();
         let on_border = |n: usize| neighbours(n).iter().any(Option::is_none);

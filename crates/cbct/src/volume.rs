@@ -186,3 +186,16 @@ impl LabelVolume {
         self.count(label) as f64 * self.voxel_volume_mm3()
     }
 }
+
+/// The six face neighbours of voxel `n` (x fastest) in a grid of `dims`, `None` past its edge.
+pub fn face_neighbours(n: usize, [nx, ny, nz]: [usize; 3]) -> [Option<usize>; 6] {
+    let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
+    [
+        (i > 0).then(|| n - 1),
+        (i + 1 < nx).then(|| n + 1),
+        (j > 0).then(|| n - nx),
+        (j + 1 < ny).then(|| n + nx),
+        (k > 0).then(|| n - nx * ny),
+        (k + 1 < nz).then(|| n + nx * ny),
+    ]
+}

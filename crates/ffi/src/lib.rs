@@ -672,6 +672,27 @@ impl<T: Send + 'static> Drop for Job<T> {
     }
 }
 
+/// A segmentation's arguments, owned so that a job's thread can hold them.
+struct OwnedScan {
+    geometry: ImageGeometry,
+    values: Vec<f32>,
+    params: TissuesFromScanParams,
+    scan_path: String,
+    thresholds: String,
+}
+
+impl OwnedScan {
+    fn new(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams, scan_path: &str, thresholds: &str) -> OwnedScan {
+        OwnedScan {
+            geometry: ImageGeometry { dims: geometry.dims, spacing: geometry.spacing, origin: geometry.origin, direction: geometry.direction },
+            values: values.to_vec(),
+            params: TissuesFromScanParams { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, use_seed: params.use_seed, seed_mm: params.seed_mm },
+            scan_path: scan_path.to_owned(),
+            thresholds: thresholds.to_owned(),
+        }
+    }
+}
+
 pub fn start_tissues_from_scan(
     geometry: &ImageGeometry,
     values: &[f32],
@@ -679,9 +700,7 @@ pub fn start_tissues_from_scan(
     scan_path: &str,
     thresholds: &str,
 ) -> Result<Box<SurfaceJob>, String> {
-    let geometry = ImageGeometry { dims: geometry.dims, spacing: geometry.spacing, origin: geometry.origin, direction: geometry.direction };
-    let params = TissuesFromScanParams { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, use_seed: params.use_seed, seed_mm: params.seed_mm };
-    let (values, scan_path, thresholds) = (values.to_vec(), scan_path.to_owned(), thresholds.to_owned());
+    let OwnedScan { geometry, values, params, scan_path, thresholds } = OwnedScan::new(geometry, values, params, scan_path, thresholds);
     Job::spawn("tissues from scan", move |go_on| segment_scan(&geometry, values, &params, &scan_path, &thresholds, go_on))
 }
 
@@ -692,9 +711,7 @@ pub fn start_teeth_from_scan(
     scan_path: &str,
     thresholds: &str,
 ) -> Result<Box<TeethJob>, String> {
-    let geometry = ImageGeometry { dims: geometry.dims, spacing: geometry.spacing, origin: geometry.origin, direction: geometry.direction };
-    let params = TissuesFromScanParams { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, use_seed: params.use_seed, seed_mm: params.seed_mm };
-    let (values, scan_path, thresholds) = (values.to_vec(), scan_path.to_owned(), thresholds.to_owned());
+    let OwnedScan { geometry, values, params, scan_path, thresholds } = OwnedScan::new(geometry, values, params, scan_path, thresholds);
     Job::spawn("teeth from scan", move |go_on| segment_teeth(&geometry, values, &params, &scan_path, &thresholds, go_on))
 }
 

@@ -6,6 +6,7 @@
 use std::time::Instant;
 
 use dentsim_cbct::phantom::gaussian_blur;
+use dentsim_cbct::volume::face_neighbours;
 use dentsim_cbct::{calibrate, crop, crop_labels, enclosed_volume, find_teeth, segment, tooth_box, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
 
 use dentsim_vdb::{DenseVolume, LevelSet};
@@ -565,18 +566,6 @@ fn centre_of(scan: &Volume) -> [f64; 3] {
     [0, 1, 2].map(|r| m[4 * r] * c[0] + m[4 * r + 1] * c[1] + m[4 * r + 2] * c[2] + m[4 * r + 3])
 }
 
-/// The six face neighbours of voxel `n` (x fastest) in a grid of `dims`, `None` past its edge.
-fn face_neighbours(n: usize, [nx, ny, nz]: [usize; 3]) -> [Option<usize>; 6] {
-    let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
-    [
-        (i > 0).then(|| n - 1),
-        (i + 1 < nx).then(|| n + 1),
-        (j > 0).then(|| n - nx),
-        (j + 1 < ny).then(|| n + nx),
-        (k > 0).then(|| n - nx * ny),
-        (k + 1 < nz).then(|| n + nx * ny),
-    ]
-}
 
 /// Books `name` at `fraction` with `go_on`; an error when it says stop.
 fn step(go_on: &mut dyn FnMut(&str, f64) -> bool, name: &str, fraction: f64) -> Result<()> {
