@@ -477,15 +477,7 @@ fn segment_scan(
     thresholds: &str,
     go_on: &mut dyn FnMut(f64) -> bool,
 ) -> Result<Vec<TissueSurface>, String> {
-    let thresholds = if thresholds.trim().is_empty() { None } else { Some(dentsim_cbct::calibrate::parse_thresholds(thresholds).map_err(|e| e.to_string())?) };
-    let scan = scan_of(geometry, values, scan_path)?;
-    let request = dentsim_sim::tissues::from_scan::TissuesFromScan {
-        voxel_size_mm: params.voxel_size_mm,
-        fdi: params.fdi,
-        seed_mm: params.use_seed.then_some(params.seed_mm),
-        thresholds,
-        ..Default::default()
-    };
+    let (scan, request) = scan_request(geometry, values, params, scan_path, thresholds)?;
     // Segmentation reports up to 0.9; meshing the surfaces is the rest.
     let (model, _) = request.run_until(&scan, &TissueTable::default(), &mut |_, f| go_on(0.9 * f)).map_err(|e| e.to_string())?;
     let surfaces = unchanged_surfaces(&model);
@@ -508,9 +500,7 @@ fn segment_teeth(
     thresholds: &str,
     go_on: &mut dyn FnMut(f64) -> bool,
 ) -> Result<Vec<ToothSurfaces>, String> {
-    let thresholds = if thresholds.trim().is_empty() { None } else { Some(dentsim_cbct::calibrate::parse_thresholds(thresholds).map_err(|e| e.to_string())?) };
-    let scan = scan_of(geometry, values, scan_path)?;
-    let request = dentsim_sim::tissues::from_scan::TissuesFromScan { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, thresholds, ..Default::default() };
+    let (scan, request) = scan_request(geometry, values, params, scan_path, thresholds)?;
     let teeth = request.run_all_until(&scan, &TissueTable::default(), &mut |_, f| go_on(0.9 * f)).map_err(|e| e.to_string())?;
     teeth
         .iter()
@@ -519,6 +509,26 @@ fn segment_teeth(
             Ok(ToothSurfaces { tooth: n as u32, seed_mm: found.seed, cut_by_field_of_view: found.cut_by_field_of_view, tissues: unchanged_surfaces(model)? })
         })
         .collect()
+}
+
+/// The scan and what to segment in it (the seed point only when `params.use_seed`).
+fn scan_request(
+    geometry: &ImageGeometry,
+    values: Vec<f32>,
+    params: &TissuesFromScanParams,
+    scan_path: &str,
+    thresholds: &str,
+) -> Result<(dentsim_cbct::Volume, dentsim_sim::tissues::from_scan::TissuesFromScan), String> {
+    let thresholds = if thresholds.trim().is_empty() { None } else { Some(dentsim_cbct::calibrate::parse_thresholds(thresholds).map_err(|e| e.to_string())?) };
+    let scan = scan_of(geometry, values, scan_path)?;
+    let request = dentsim_sim::tissues::from_scan::TissuesFromScan {
+        voxel_size_mm: params.voxel_size_mm,
+        fdi: params.fdi,
+        seed_mm: params.use_seed.then_some(params.seed_mm),
+        thresholds,
+        ..Default::default()
+    };
+    Ok((scan, request))
 }
 
 /// The scan: its file through dentsim's reader when `scan_path` is given, else the image ParaView
@@ -672,47 +682,22 @@ impl<T: Send + 'static> Drop for Job<T> {
     }
 }
 
-/// A segmentation's arguments, owned so that a job's thread can hold them.
-struct OwnedScan {
-    geometry: ImageGeometry,
-    values: Vec<f32>,
-    params: TissuesFromScanParams,
-    scan_path: String,
-    thresholds: String,
+/// The segmentation `work` of a scan's arguments (owned, so that the job's thread holds them).
+type ScanWork<T> = fn(&ImageGeometry, Vec<f32>, &TissuesFromScanParams, &str, &str, &mut dyn FnMut(f64) -> bool) -> Result<T, String>;
+
+fn scan_job<T: Send + 'static>(what: &'static str, work: ScanWork<T>, geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams, scan_path: &str, thresholds: &str) -> Result<Box<Job<T>>, String> {
+    let geometry = ImageGeometry { dims: geometry.dims, spacing: geometry.spacing, origin: geometry.origin, direction: geometry.direction };
+    let params = TissuesFromScanParams { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, use_seed: params.use_seed, seed_mm: params.seed_mm };
+    let (values, scan_path, thresholds) = (values.to_vec(), scan_path.to_owned(), thresholds.to_owned());
+    Job::spawn(what, move |go_on| work(&geometry, values, &params, &scan_path, &thresholds, go_on))
 }
 
-impl OwnedScan {
-    fn new(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams, scan_path: &str, thresholds: &str) -> OwnedScan {
-        OwnedScan {
-            geometry: ImageGeometry { dims: geometry.dims, spacing: geometry.spacing, origin: geometry.origin, direction: geometry.direction },
-            values: values.to_vec(),
-            params: TissuesFromScanParams { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, use_seed: params.use_seed, seed_mm: params.seed_mm },
-            scan_path: scan_path.to_owned(),
-            thresholds: thresholds.to_owned(),
-        }
-    }
+pub fn start_tissues_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams, scan_path: &str, thresholds: &str) -> Result<Box<SurfaceJob>, String> {
+    scan_job("tissues from scan", segment_scan, geometry, values, params, scan_path, thresholds)
 }
 
-pub fn start_tissues_from_scan(
-    geometry: &ImageGeometry,
-    values: &[f32],
-    params: &TissuesFromScanParams,
-    scan_path: &str,
-    thresholds: &str,
-) -> Result<Box<SurfaceJob>, String> {
-    let OwnedScan { geometry, values, params, scan_path, thresholds } = OwnedScan::new(geometry, values, params, scan_path, thresholds);
-    Job::spawn("tissues from scan", move |go_on| segment_scan(&geometry, values, &params, &scan_path, &thresholds, go_on))
-}
-
-pub fn start_teeth_from_scan(
-    geometry: &ImageGeometry,
-    values: &[f32],
-    params: &TissuesFromScanParams,
-    scan_path: &str,
-    thresholds: &str,
-) -> Result<Box<TeethJob>, String> {
-    let OwnedScan { geometry, values, params, scan_path, thresholds } = OwnedScan::new(geometry, values, params, scan_path, thresholds);
-    Job::spawn("teeth from scan", move |go_on| segment_teeth(&geometry, values, &params, &scan_path, &thresholds, go_on))
+pub fn start_teeth_from_scan(geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams, scan_path: &str, thresholds: &str) -> Result<Box<TeethJob>, String> {
+    scan_job("teeth from scan", segment_teeth, geometry, values, params, scan_path, thresholds)
 }
 
 pub fn start_assessment(
