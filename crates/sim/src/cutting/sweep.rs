@@ -301,8 +301,11 @@ impl Sweep {
         // With the start free, voxels inside the start head's inner capsule lie deeper in it than
         // the band (and its slack; a hair narrower for rounding): they keep the cut-off.
         let inner = match start_free {
+            // With its bounding box across the rows (y and z, mm), the cheaper test.
             Some(_) => burr.inner_capsule(band + f64::from(DONE_SLACK) + 1e-5).map(|(za, zb, r)| {
-                LineCapsule::new(from.transform_point3(DVec3::new(0.0, 0.0, za)), from.transform_point3(DVec3::new(0.0, 0.0, zb)), r - 1e-6)
+                let (a, b, r) = (from.transform_point3(DVec3::new(0.0, 0.0, za)), from.transform_point3(DVec3::new(0.0, 0.0, zb)), r - 1e-6);
+                let (low, high) = (a.min(b) - r, a.max(b) + r);
+                (LineCapsule::new(a, b, r), [low.y, high.y, low.z, high.z])
             }),
             None => None,
         };
@@ -331,7 +334,8 @@ impl Sweep {
                 for &(h0, h1, r) in burr.axis_slabs() {
                     let (p, q, r) = (along(h0 - cutoff), along(h1 + cutoff), r + cutoff);
                     self.capsules.push(LineCapsule::cylinder(p, q, r));
-                    let (low, high) = (p.min(q) - r, p.max(q) + r);
+                    // (A hair wider than the cylinder: the box only culls.)
+                    let (low, high) = (p.min(q) - (r + 1e-9), p.max(q) + (r + 1e-9));
                     self.slab_boxes.push([low.y, high.y, low.z, high.z]);
                 }
             }
@@ -444,9 +448,12 @@ impl Sweep {
                         // Voxels (inclusive) behind the translating head keep the cut-off; the
                         // rest of the row is evaluated a run at a time, each pose over the part
                         // of the run its bounding ball (grown by the cut-off) reaches.
-                        let gap = behind.map_or((1, 0), |b| b.row_gap(y, z, voxel));
+                        let gap = behind.map_or((1, 0), |b| b.row_gap(y, z, inv_voxel));
                         // And with the start free, the voxels deep inside its head.
-                        let deep = inner.and_then(|c| c.x_interval(y, z)).map_or((1, 0), |(l, h)| whole_voxels(l, h, voxel));
+                        let deep = inner
+                            .filter(|(_, b)| y >= b[0] && y <= b[1] && z >= b[2] && z <= b[3])
+                            .and_then(|(c, _)| c.x_interval(y, z))
+                            .map_or((1, 0), |(l, h)| whole_voxels(l, h, inv_voxel));
                         let runs = runs_outside(i_lo, i_hi, [gap, deep]);
                         // The haptic tick's usual stroke: a head translating from a pose the
                         // grids hold, so short (under 2·GAP voxels) that one later pose is all
@@ -597,7 +604,7 @@ struct Behind {
 
 impl Behind {
     /// The voxel indices (inclusive; empty when lo > hi) of the row at (y, z) that lie behind.
-    fn row_gap(&self, y: f64, z: f64, voxel: f64) -> (i32, i32) {
+    fn row_gap(&self, y: f64, z: f64, inv_voxel: f64) -> (i32, i32) {
         let (dy, dz) = (y - self.origin.y, z - self.origin.z);
         // c·x + e ≤ 0 as an interval of x.
         let half_line = |c: f64, e: f64| -> (f64, f64) {
@@ -622,7 +629,7 @@ impl Behind {
         if !(lo <= hi) {
             return (1, 0);
         }
-        whole_voxels(lo, hi, voxel)
+        whole_voxels(lo, hi, inv_voxel)
     }
 }
 
@@ -630,21 +637,23 @@ impl Behind {
 /// instruction, and `f64::floor` there is a library call on every row.
 #[inline(always)]
 fn floor_i32(x: f64) -> i32 {
+    // Branch-free: which way a row's bound rounds is a coin toss to the predictor.
     let t = x as i32;
-    if f64::from(t) > x { t.saturating_sub(1) } else { t }
+    t.saturating_sub(i32::from(f64::from(t) > x))
 }
 
 /// ⌈x⌉ as an index (saturating; NaN gives 0).
 #[inline(always)]
 fn ceil_i32(x: f64) -> i32 {
     let t = x as i32;
-    if f64::from(t) < x { t.saturating_add(1) } else { t }
+    t.saturating_add(i32::from(f64::from(t) < x))
 }
 
 /// The voxel indices (inclusive) whose centres lie within [lo, hi] mm, a hair inside (saturating
-/// casts keep infinities in range).
-fn whole_voxels(lo: f64, hi: f64, voxel: f64) -> (i32, i32) {
-    (ceil_i32(lo / voxel + 1e-9), floor_i32(hi / voxel - 1e-9))
+/// casts keep infinities in range); `inv_voxel` is 1 / the voxel size (a product, not a
+/// division per row: the hair, 1e-9 voxel, is far above its rounding).
+fn whole_voxels(lo: f64, hi: f64, inv_voxel: f64) -> (i32, i32) {
+    (ceil_i32(lo * inv_voxel + 1e-9), floor_i32(hi * inv_voxel - 1e-9))
 }
 
 /// The runs (inclusive; empty ones have lo > hi) of [lo, hi] outside both `cuts` (inclusive
