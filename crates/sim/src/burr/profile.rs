@@ -317,7 +317,9 @@ fn sdf_batch<const N: usize>(pieces: &[Edge32], closing: &Edge32, origin: [f32; 
                 let in_span = (e.span[0][0] * vz - e.span[0][1] * vx >= 0.0) & (vx * e.span[1][1] - vz * e.span[1][0] >= 0.0);
                 let (ax, az) = (rho[l] - e.a[0], z[l] - e.a[1]);
                 let (bx, bz) = (rho[l] - e.b[0], z[l] - e.b[1]);
-                let ends = (ax * ax + az * az).sqrt().min((bx * bx + bz * bz).sqrt());
+                // One root of the nearer end's square: the same value (a root is monotone and
+                // correctly rounded), one root fewer.
+                let ends = (ax * ax + az * az).min(bx * bx + bz * bz).sqrt();
                 arc[l] = arc[l].min(if in_span { (len - e.radius).abs() } else { ends });
                 // In the circular segment between the arc and its chord.
                 let (qx, qz) = (rho_q[l] - e.centre[0], z[l] - e.centre[1]);
