@@ -481,11 +481,23 @@ impl Sweep {
                                 let m = (kb - ka + 1) as usize;
                                 rows.pose.resize(m, 0.0);
                                 burr.sdf_row_from(origin, step, (ka - lo.x) as usize, &mut rows.pose[..m]);
-                                let out = &mut out[(ka - i_lo) as usize..=(kb - i_lo) as usize];
-                                for (v, d) in out.iter_mut().zip(&rows.pose[..m]) {
+                                let run = &mut out[(ka - i_lo) as usize..=(kb - i_lo) as usize];
+                                for (v, d) in run.iter_mut().zip(&rows.pose[..m]) {
                                     *v = if *d + moved <= deep_held { cutoff32 } else { cutoff32.min(*d) };
                                 }
+                                // The span from what this run wrote: the rest of the row keeps
+                                // the cut-off (the runs come in order along it).
+                                let below = |v: &f32| *v < cutoff32;
+                                if let (Some(first), Some(last)) = (run.iter().position(below), run.iter().rposition(below)) {
+                                    let (first, last) = ((ka - lo.x) as u32 + first as u32, (ka - lo.x) as u32 + last as u32 + 1);
+                                    let span = &mut patch.spans[2 * row_index..2 * row_index + 2];
+                                    if span[0] == span[1] {
+                                        span[0] = first;
+                                    }
+                                    span[1] = last;
+                                }
                             }
+                            continue;
                         } else {
                         for (a, b) in runs {
                             if a > b {
