@@ -461,12 +461,18 @@ impl Sweep {
                         // per run, done here without its buffers, bit for bit the same.
                         if let (Some(moves), 2, false) = (start_free, self.inverse.len(), self.exhaustive) {
                             let (inv, c) = (&self.inverse[1], self.centres[1]);
-                            let d2 = (y - c.y) * (y - c.y) + (z - c.z) * (z - c.z);
-                            if d2 >= reach * reach {
-                                continue;
-                            }
-                            let half = (reach * reach - d2).sqrt();
-                            let (reach_lo, reach_hi) = (floor_i32((c.x - half) * inv_voxel), ceil_i32((c.x + half) * inv_voxel));
+                            // The slabs already bound the row; beyond the pose's ball a voxel
+                            // would take the cut-off anyway.
+                            let (reach_lo, reach_hi) = if slabbed {
+                                (i32::MIN, i32::MAX)
+                            } else {
+                                let d2 = (y - c.y) * (y - c.y) + (z - c.z) * (z - c.z);
+                                if d2 >= reach * reach {
+                                    continue;
+                                }
+                                let half = (reach * reach - d2).sqrt();
+                                (floor_i32((c.x - half) * inv_voxel), ceil_i32((c.x + half) * inv_voxel))
+                            };
                             let step = (inv.matrix3.x_axis * voxel).as_vec3();
                             // Points from the box's first voxel on: a voxel's distance does not
                             // depend on where its run starts.
