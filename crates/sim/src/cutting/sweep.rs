@@ -12,7 +12,9 @@
 //! evaluation; every value is therefore either exact (to the bound above) or ≥ the cut-off, which
 //! keeps the patch valid for `LevelSet::subtract_logged` (it reads one voxel past the band). Other
 //! heads are evaluated a run of a row at a time ([`Burr::sdf_row`]); the runs leave out what a
-//! stroke continuing the last cannot change (see `Behind` and [`Burr::inner_capsule`]).
+//! stroke continuing the last cannot change (see `Behind` and [`Burr::inner_capsule`]). With one
+//! pose to evaluate, rows are bounded by the head's slabs ([`Burr::axis_slabs`]) and written by a
+//! fast path that gives the general loop's values bit for bit (a test pins the two together).
 use dentsim_vdb::{block_counts, DensePatch, LEAF_DIM};
 use glam::{DAffine3, DMat3, DQuat, DVec3, IVec3};
 
