@@ -1,5 +1,5 @@
 //! Times a head's distance one point at a time and a row at a time (profiling the sweep's
-//! kernel): `cargo run --release --example sdf_speed [burr spec]`.
+//! kernel): `cargo run --release --example sdf_speed [burr spec] [row length]`.
 use std::time::Instant;
 
 use dentsim_sim::burr::Burr;
@@ -9,7 +9,7 @@ fn main() {
     let spec = std::env::args().nth(1).unwrap_or_else(|| "cylinder_flat_012".into());
     let burr = Burr::parse(&spec).expect("burr spec");
     let rows = 20_000;
-    let len = 32;
+    let len: usize = std::env::args().nth(2).map_or(32, |a| a.parse().unwrap());
     let origin = |r: usize| {
         let f = r as f64;
         DVec3::new(-0.8, (f * 0.11).cos() * 0.8, (f * 0.013).sin() * 2.0 + 1.5)

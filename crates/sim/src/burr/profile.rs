@@ -188,6 +188,48 @@ impl Profile {
         Profile { pieces, max_radius, z_min, z_max, convex, facing_down_below, facing_up_above, edges, edges32 }
     }
 
+    /// An upper bound on the radius of the profile's points with height in `[z0, z1]` (0 when
+    /// none): a line's largest at the window's edges or its ends, an arc's at most its circle's
+    /// over the part of the window its heights span.
+    pub fn max_radius_within(&self, z0: f64, z1: f64) -> f64 {
+        let mut best: f64 = 0.0;
+        for piece in &self.pieces {
+            match *piece {
+                Piece::Line { a, b } => {
+                    let (lo, hi) = (a.y.min(b.y).max(z0), a.y.max(b.y).min(z1));
+                    if lo > hi {
+                        continue;
+                    }
+                    if a.y == b.y {
+                        best = best.max(a.x.max(b.x));
+                        continue;
+                    }
+                    let at = |z: f64| a.x + (b.x - a.x) * ((z - a.y) / (b.y - a.y)).clamp(0.0, 1.0);
+                    best = best.max(at(lo)).max(at(hi));
+                }
+                Piece::Arc { centre, radius, a, b, ccw } => {
+                    // The arc's heights: its ends', and its circle's top or bottom where the arc
+                    // passes them.
+                    let (s, e) = if ccw { (a - centre, b - centre) } else { (b - centre, a - centre) };
+                    let (mut lo, mut hi) = (a.y.min(b.y), a.y.max(b.y));
+                    for dir in [DVec2::Y, DVec2::NEG_Y] {
+                        if s.perp_dot(dir) >= 0.0 && dir.perp_dot(e) >= 0.0 {
+                            lo = lo.min(centre.y + dir.y * radius);
+                            hi = hi.max(centre.y + dir.y * radius);
+                        }
+                    }
+                    let (lo, hi) = (lo.max(z0), hi.min(z1));
+                    if lo > hi {
+                        continue;
+                    }
+                    let dz = if centre.y < lo { lo - centre.y } else if centre.y > hi { centre.y - hi } else { 0.0 };
+                    best = best.max(centre.x + (radius * radius - dz * dz).max(0.0).sqrt());
+                }
+            }
+        }
+        best
+    }
+
     /// Exact signed distance (negative inside) of the point at radius `rho` ≥ 0 and height `z`.
     pub fn sdf(&self, rho: f64, z: f64) -> f64 {
         let p = DVec2::new(rho, z);
@@ -223,57 +265,85 @@ impl Profile {
     /// batches of points at a time (the same exact distance, to f32 rounding: about 1e-7 of the
     /// coordinates). For a row of voxels, where one point at a time leaves the vector units idle.
     pub fn sdf_row(&self, origin: [f32; 3], step: [f32; 3], out: &mut [f32]) {
+        self.sdf_row_from(origin, step, 0, out);
+    }
+
+    /// [`sdf_row`](Self::sdf_row) at the row's points `first + i` for each `out[i]`: each value
+    /// bit for bit what the row from its origin gives there, wherever a run of it starts.
+    pub fn sdf_row_from(&self, origin: [f32; 3], step: [f32; 3], first: usize, out: &mut [f32]) {
         let Some((closing, pieces)) = self.edges32.split_last() else {
             out.fill(f32::INFINITY);
             return;
         };
-        for (c, chunk) in out.chunks_mut(BATCH).enumerate() {
-            let (mut rho, mut z) = ([0f32; BATCH], [0f32; BATCH]);
-            for l in 0..BATCH {
-                let t = (c * BATCH + l) as f32;
-                let (x, y) = (origin[0] + step[0] * t, origin[1] + step[1] * t);
-                rho[l] = (x * x + y * y).sqrt();
-                z[l] = origin[2] + step[2] * t;
+        // Whole batches; a tail of at most 8 in a smaller one (rows are short, a run is often
+        // under 20 voxels, and a small batch costs nearly what a whole one does).
+        let (mut first, mut rest) = (first, out);
+        while !rest.is_empty() {
+            let n = rest.len();
+            let (chunk, tail) = rest.split_at_mut(n.min(BATCH));
+            let ts = |l: usize| (first + l) as f32;
+            match n {
+                9.. => sdf_batch::<BATCH>(pieces, closing, origin, step, std::array::from_fn(ts), chunk),
+                5..=8 => sdf_batch::<8>(pieces, closing, origin, step, std::array::from_fn(ts), chunk),
+                _ => sdf_batch::<4>(pieces, closing, origin, step, std::array::from_fn(ts), chunk),
             }
-            // The sign test looks from just off the axis, as `sdf`.
-            let rho_q = rho.map(|r| r.max(1e-9));
-            let (mut line2, mut arc) = ([f32::INFINITY; BATCH], [f32::INFINITY; BATCH]);
-            let mut inside = [0u32; BATCH];
-            for e in pieces {
-                if e.arc {
-                    for l in 0..BATCH {
-                        let (vx, vz) = (rho[l] - e.centre[0], z[l] - e.centre[1]);
-                        let len = (vx * vx + vz * vz).sqrt();
-                        let in_span = (e.span[0][0] * vz - e.span[0][1] * vx >= 0.0) & (vx * e.span[1][1] - vz * e.span[1][0] >= 0.0);
-                        let (ax, az) = (rho[l] - e.a[0], z[l] - e.a[1]);
-                        let (bx, bz) = (rho[l] - e.b[0], z[l] - e.b[1]);
-                        let ends = (ax * ax + az * az).sqrt().min((bx * bx + bz * bz).sqrt());
-                        arc[l] = arc[l].min(if in_span { (len - e.radius).abs() } else { ends });
-                        // In the circular segment between the arc and its chord.
-                        let (qx, qz) = (rho_q[l] - e.centre[0], z[l] - e.centre[1]);
-                        let side = e.ab[0] * (z[l] - e.a[1]) - e.ab[1] * (rho_q[l] - e.a[0]);
-                        inside[l] ^= ((qx * qx + qz * qz < e.radius * e.radius) & (side * e.side > 0.0)) as u32;
-                    }
-                } else {
-                    for l in 0..BATCH {
-                        let (px, pz) = (rho[l] - e.a[0], z[l] - e.a[1]);
-                        let t = ((px * e.ab[0] + pz * e.ab[1]) * e.inv_len2).max(0.0).min(1.0);
-                        let (dx, dz) = (px - e.ab[0] * t, pz - e.ab[1] * t);
-                        line2[l] = line2[l].min(dx * dx + dz * dz);
-                    }
-                }
-                for l in 0..BATCH {
-                    inside[l] ^= e.crossed_by(rho_q[l], z[l]) as u32;
-                }
+            first += chunk.len();
+            rest = tail;
+        }
+    }
+}
+
+/// [`Profile::sdf_row`] at the row's points `ts[l]` (l < N), into `out` (at most N). Each
+/// lane's arithmetic is the same whatever N, so a point's distance does not depend on the batch
+/// it falls in.
+#[inline(always)]
+fn sdf_batch<const N: usize>(pieces: &[Edge32], closing: &Edge32, origin: [f32; 3], step: [f32; 3], ts: [f32; N], out: &mut [f32]) {
+    let (mut rho, mut z) = ([0f32; N], [0f32; N]);
+    for l in 0..N {
+        let t = ts[l];
+        let (x, y) = (origin[0] + step[0] * t, origin[1] + step[1] * t);
+        rho[l] = (x * x + y * y).sqrt();
+        z[l] = origin[2] + step[2] * t;
+    }
+    // The sign test looks from just off the axis, as `sdf`.
+    let rho_q = rho.map(|r| r.max(1e-9));
+    let (mut line2, mut arc) = ([f32::INFINITY; N], [f32::INFINITY; N]);
+    let mut inside = [0u32; N];
+    for e in pieces {
+        if e.arc {
+            for l in 0..N {
+                let (vx, vz) = (rho[l] - e.centre[0], z[l] - e.centre[1]);
+                let len = (vx * vx + vz * vz).sqrt();
+                let in_span = (e.span[0][0] * vz - e.span[0][1] * vx >= 0.0) & (vx * e.span[1][1] - vz * e.span[1][0] >= 0.0);
+                let (ax, az) = (rho[l] - e.a[0], z[l] - e.a[1]);
+                let (bx, bz) = (rho[l] - e.b[0], z[l] - e.b[1]);
+                // One root of the nearer end's square: the same value (a root is monotone and
+                // correctly rounded), one root fewer.
+                let ends = (ax * ax + az * az).min(bx * bx + bz * bz).sqrt();
+                arc[l] = arc[l].min(if in_span { (len - e.radius).abs() } else { ends });
+                // In the circular segment between the arc and its chord.
+                let (qx, qz) = (rho_q[l] - e.centre[0], z[l] - e.centre[1]);
+                let side = e.ab[0] * (z[l] - e.a[1]) - e.ab[1] * (rho_q[l] - e.a[0]);
+                inside[l] ^= ((qx * qx + qz * qz < e.radius * e.radius) & (side * e.side > 0.0)) as u32;
             }
-            for l in 0..BATCH {
-                inside[l] ^= closing.crossed_by(rho_q[l], z[l]) as u32;
-            }
-            for (l, o) in chunk.iter_mut().enumerate() {
-                let d = line2[l].sqrt().min(arc[l]);
-                *o = if inside[l] != 0 { -d } else { d };
+        } else {
+            for l in 0..N {
+                let (px, pz) = (rho[l] - e.a[0], z[l] - e.a[1]);
+                let t = ((px * e.ab[0] + pz * e.ab[1]) * e.inv_len2).max(0.0).min(1.0);
+                let (dx, dz) = (px - e.ab[0] * t, pz - e.ab[1] * t);
+                line2[l] = line2[l].min(dx * dx + dz * dz);
             }
         }
+        for l in 0..N {
+            inside[l] ^= e.crossed_by(rho_q[l], z[l]) as u32;
+        }
+    }
+    for l in 0..N {
+        inside[l] ^= closing.crossed_by(rho_q[l], z[l]) as u32;
+    }
+    for (l, o) in out.iter_mut().enumerate() {
+        let d = line2[l].sqrt().min(arc[l]);
+        *o = if inside[l] != 0 { -d } else { d };
     }
 }
 

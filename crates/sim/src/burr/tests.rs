@@ -252,3 +252,65 @@ fn the_inner_capsule_lies_deep_inside_every_head() {
         assert!(worst <= -margin + 1e-9, "{:?}: a point of the capsule at depth {}", burr.shape, -worst);
     }
 }
+
+/// The slabs run from the head's lowest point to its highest, in order, and every point of the
+/// profile (sampled independently of the bound's code) lies within its slab's radius; the
+/// bound is no looser than the head's widest radius, and tight where the radius is known.
+#[test]
+fn the_axis_slabs_hold_every_head() {
+    for burr in every_burr().into_iter().chain(["flame_016", "pear_010", "inverted_cone_010", "taper_round_014"].map(|s| Burr::parse(s).unwrap())) {
+        let slabs = burr.axis_slabs();
+        if burr.ball_radius().is_some() {
+            assert!(slabs.is_empty());
+            continue;
+        }
+        let profile = burr.head_profile();
+        assert_eq!((slabs[0].0, slabs[slabs.len() - 1].1), (profile.z_min, profile.z_max), "{:?}", burr.shape);
+        for w in slabs.windows(2) {
+            assert!(w[0].1 == w[1].0 && w[0].0 < w[0].1, "{:?}: slabs {w:?}", burr.shape);
+        }
+        for p in polygon(&profile) {
+            let widest = slabs.iter().filter(|s| s.0 <= p.y && p.y <= s.1).map(|s| s.2).fold(f64::NEG_INFINITY, f64::max);
+            assert!(p.x <= widest + 1e-12, "{:?}: profile point {p} beyond its slabs ({widest})", burr.shape);
+        }
+        for s in slabs {
+            assert!(s.2 <= profile.max_radius + 1e-12, "{:?}: slab {s:?}", burr.shape);
+        }
+    }
+    // A flat cylinder is one slab of its radius; a flat taper's slabs widen toward the top
+    // (its tip is the narrow end) to within the radius it has there.
+    let cylinder = Burr::parse("cylinder_flat_012").unwrap();
+    assert_eq!(cylinder.axis_slabs(), &[(0.0, 4.0, 0.6)]);
+    let taper = Burr::parse("taper_flat_012").unwrap();
+    let radius_at = |z: f64| 0.6 - (6.0 - z) * 2f64.to_radians().tan();
+    for s in taper.axis_slabs() {
+        assert!((s.2 - radius_at(s.1)).abs() < 1e-12, "taper slab {s:?}");
+    }
+}
+
+/// A row's distances do not depend on where the row is cut into batches or runs: every prefix
+/// of a row, and every run from any point of it, gives bit for bit the whole row's values.
+#[test]
+fn a_row_prefix_gives_the_rows_values_bit_for_bit() {
+    let mut out = vec![0f32; 53];
+    let mut prefix = vec![0f32; 53];
+    for burr in every_burr() {
+        let origin = DVec3::new(-1.1, 0.23, burr.length_mm * 0.4).as_vec3();
+        let step = DVec3::new(0.05, 0.004, -0.002).as_vec3();
+        burr.sdf_row(origin, step, &mut out);
+        for len in 0..out.len() {
+            burr.sdf_row(origin, step, &mut prefix[..len]);
+            for i in 0..len {
+                assert_eq!(prefix[i].to_bits(), out[i].to_bits(), "{:?}: point {i} of a row of {len}", burr.shape);
+            }
+        }
+        // And a run starting anywhere along the row.
+        for first in 0..out.len() {
+            let run = &mut prefix[..(out.len() - first).min(19)];
+            burr.sdf_row_from(origin, step, first, run);
+            for (i, v) in run.iter().enumerate() {
+                assert_eq!(v.to_bits(), out[first + i].to_bits(), "{:?}: point {} in a run from {first}", burr.shape, first + i);
+            }
+        }
+    }
+}

@@ -12,7 +12,9 @@
 //! evaluation; every value is therefore either exact (to the bound above) or ≥ the cut-off, which
 //! keeps the patch valid for `LevelSet::subtract_logged` (it reads one voxel past the band). Other
 //! heads are evaluated a run of a row at a time ([`Burr::sdf_row`]); the runs leave out what a
-//! stroke continuing the last cannot change (see `Behind` and [`Burr::inner_capsule`]).
+//! stroke continuing the last cannot change (see `Behind` and [`Burr::inner_capsule`]). With one
+//! pose to evaluate, rows are bounded by the head's slabs ([`Burr::axis_slabs`]) and written by a
+//! fast path that gives the general loop's values bit for bit (a test pins the two together).
 use dentsim_vdb::{block_counts, DensePatch, LEAF_DIM};
 use glam::{DAffine3, DMat3, DQuat, DVec3, IVec3};
 
@@ -65,8 +67,11 @@ pub struct Sweep {
     centres: Vec<DVec3>,
     /// World ends of the head's axis at each sub-pose (non-round heads; see [`Burr::axis_extent`]).
     axes: Vec<(DVec3, DVec3)>,
-    /// The capsules about those axes the rows reach, readied.
+    /// The capsules about those axes the rows reach, readied; with one pose evaluated, the
+    /// cylinders of the head's slabs at it instead (see [`Burr::axis_slabs`]), each with its
+    /// bounding box across the rows (y and z, mm).
     capsules: Vec<LineCapsule>,
+    slab_boxes: Vec<[f64; 4]>,
     pub substeps: usize,
     /// Index box of the patch (inclusive).
     pub lo: IVec3,
@@ -76,6 +81,9 @@ pub struct Sweep {
     material: Vec<u8>,
     material_rows: Vec<(i32, i32)>,
     rows: RowScratch,
+    /// Evaluates every row the general way, bounded by the head's one cylinder, without the
+    /// one-pose fast path and the slabs; the tests pin those to it.
+    exhaustive: bool,
 }
 
 /// One row run's distances for a non-round head (see [`Sweep::build_in`]), voxel by voxel.
@@ -128,7 +136,8 @@ impl Sweep {
         self.inverse.reserve(poses.saturating_sub(self.inverse.len()));
         self.centres.reserve(poses.saturating_sub(self.centres.len()));
         self.axes.reserve(poses.saturating_sub(self.axes.len()));
-        self.capsules.reserve(poses.saturating_sub(self.capsules.len()));
+        self.capsules.reserve(poses.max(crate::burr::MAX_SLABS).saturating_sub(self.capsules.len()));
+        self.slab_boxes.reserve(crate::burr::MAX_SLABS.saturating_sub(self.slab_boxes.len()));
         [side; 3]
     }
 
@@ -294,8 +303,11 @@ impl Sweep {
         // With the start free, voxels inside the start head's inner capsule lie deeper in it than
         // the band (and its slack; a hair narrower for rounding): they keep the cut-off.
         let inner = match start_free {
+            // With its bounding box across the rows (y and z, mm), the cheaper test.
             Some(_) => burr.inner_capsule(band + f64::from(DONE_SLACK) + 1e-5).map(|(za, zb, r)| {
-                LineCapsule::new(from.transform_point3(DVec3::new(0.0, 0.0, za)), from.transform_point3(DVec3::new(0.0, 0.0, zb)), r - 1e-6)
+                let (a, b, r) = (from.transform_point3(DVec3::new(0.0, 0.0, za)), from.transform_point3(DVec3::new(0.0, 0.0, zb)), r - 1e-6);
+                let (low, high) = (a.min(b) - r, a.max(b) + r);
+                (LineCapsule::new(a, b, r), [low.y, high.y, low.z, high.z])
             }),
             None => None,
         };
@@ -315,8 +327,24 @@ impl Sweep {
         // With the start free, the start pose changes nothing: rows reach as the later ones do.
         let first_pose = usize::from(start_free.is_some());
         self.capsules.clear();
-        self.capsules.extend(self.axes[first_pose.min(self.axes.len())..].iter().map(|(a, b)| LineCapsule::new(*a, *b, axis_reach)));
-        let (centres, capsules) = (&self.centres[first_pose..], &self.capsules);
+        self.slab_boxes.clear();
+        match &self.axes[first_pose.min(self.axes.len())..] {
+            // One pose: each slab's cylinder, grown by the cut-off along the axis and across it,
+            // holds every point within the cut-off of the head's part in that slab.
+            [(a, b)] if !self.exhaustive && !burr.axis_slabs().is_empty() => {
+                let along = |h: f64| *a + (*b - *a) * ((h - z_min) / (z_max - z_min));
+                for &(h0, h1, r) in burr.axis_slabs() {
+                    let (p, q, r) = (along(h0 - cutoff), along(h1 + cutoff), r + cutoff);
+                    self.capsules.push(LineCapsule::cylinder(p, q, r));
+                    // (A hair wider than the cylinder: the box only culls.)
+                    let (low, high) = (p.min(q) - (r + 1e-9), p.max(q) + (r + 1e-9));
+                    self.slab_boxes.push([low.y, high.y, low.z, high.z]);
+                }
+            }
+            axes => self.capsules.extend(axes.iter().map(|(a, b)| LineCapsule::new(*a, *b, axis_reach))),
+        }
+        let slabbed = !self.slab_boxes.is_empty();
+        let (centres, capsules, slab_boxes) = (&self.centres[first_pose..], &self.capsules, &self.slab_boxes);
         for k in lo.z..=hi.z {
             let z = f64::from(k) * voxel;
             for j in lo.y..=hi.y {
@@ -330,7 +358,11 @@ impl Sweep {
                 // The x-range where the head's bounding balls (grown by the cut-off) can reach,
                 // swept along the centre path (segments between consecutive centres).
                 let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                let segments = centres.len().saturating_sub(1).max(1);
+                // (The slabs' cylinders lie within the one pose's bounding ball.)
+                let segments = if slabbed { 0 } else { centres.len().saturating_sub(1).max(1) };
+                if slabbed {
+                    (x_lo, x_hi) = (f64::NEG_INFINITY, f64::INFINITY);
+                }
                 for s in 0..segments {
                     let a = centres[s];
                     let b = centres[(s + 1).min(centres.len() - 1)];
@@ -343,7 +375,10 @@ impl Sweep {
                 }
                 if !capsules.is_empty() {
                     let (mut c_lo, mut c_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                    for capsule in capsules {
+                    for (n, capsule) in capsules.iter().enumerate() {
+                        if slab_boxes.get(n).is_some_and(|b| y < b[0] || y > b[1] || z < b[2] || z > b[3]) {
+                            continue;
+                        }
                         if let Some((l, h)) = capsule.x_interval(y, z) {
                             c_lo = c_lo.min(l);
                             c_hi = c_hi.max(h);
@@ -415,10 +450,63 @@ impl Sweep {
                         // Voxels (inclusive) behind the translating head keep the cut-off; the
                         // rest of the row is evaluated a run at a time, each pose over the part
                         // of the run its bounding ball (grown by the cut-off) reaches.
-                        let gap = behind.map_or((1, 0), |b| b.row_gap(y, z, voxel));
+                        let gap = behind.map_or((1, 0), |b| b.row_gap(y, z, inv_voxel));
                         // And with the start free, the voxels deep inside its head.
-                        let deep = inner.and_then(|c| c.x_interval(y, z)).map_or((1, 0), |(l, h)| whole_voxels(l, h, voxel));
+                        let deep = inner
+                            .filter(|(_, b)| y >= b[0] && y <= b[1] && z >= b[2] && z <= b[3])
+                            .and_then(|(c, _)| c.x_interval(y, z))
+                            .map_or((1, 0), |(l, h)| whole_voxels(l, h, inv_voxel));
                         let runs = runs_outside(i_lo, i_hi, [gap, deep]);
+                        // The haptic tick's usual stroke: a head translating from a pose the
+                        // grids hold, so short (under 2·GAP voxels) that one later pose is all
+                        // the sweep evaluates. The general loop below then reduces to one pass
+                        // per run, done here without its buffers, bit for bit the same.
+                        if let (Some(moves), 2, false) = (start_free, self.inverse.len(), self.exhaustive) {
+                            let (inv, c) = (&self.inverse[1], self.centres[1]);
+                            // The slabs already bound the row; beyond the pose's ball a voxel
+                            // would take the cut-off anyway.
+                            let (reach_lo, reach_hi) = if slabbed {
+                                (i32::MIN, i32::MAX)
+                            } else {
+                                let d2 = (y - c.y) * (y - c.y) + (z - c.z) * (z - c.z);
+                                if d2 >= reach * reach {
+                                    continue;
+                                }
+                                let half = (reach * reach - d2).sqrt();
+                                (floor_i32((c.x - half) * inv_voxel), ceil_i32((c.x + half) * inv_voxel))
+                            };
+                            let step = (inv.matrix3.x_axis * voxel).as_vec3();
+                            // Points from the box's first voxel on: a voxel's distance does not
+                            // depend on where its run starts.
+                            let origin = inv.transform_point3(DVec3::new(f64::from(lo.x) * voxel, y, z)).as_vec3();
+                            let (cutoff32, moved) = (cutoff as f32, moves as f32);
+                            let deep_held = (-band - f64::from(DONE_SLACK) - 1e-6) as f32;
+                            for (a, b) in runs {
+                                let (ka, kb) = (reach_lo.max(a), reach_hi.min(b));
+                                if ka > kb {
+                                    continue;
+                                }
+                                let m = (kb - ka + 1) as usize;
+                                rows.pose.resize(m, 0.0);
+                                burr.sdf_row_from(origin, step, (ka - lo.x) as usize, &mut rows.pose[..m]);
+                                let run = &mut out[(ka - i_lo) as usize..=(kb - i_lo) as usize];
+                                for (v, d) in run.iter_mut().zip(&rows.pose[..m]) {
+                                    *v = if *d + moved <= deep_held { cutoff32 } else { cutoff32.min(*d) };
+                                }
+                                // The span from what this run wrote: the rest of the row keeps
+                                // the cut-off (the runs come in order along it).
+                                let below = |v: &f32| *v < cutoff32;
+                                if let (Some(first), Some(last)) = (run.iter().position(below), run.iter().rposition(below)) {
+                                    let (first, last) = ((ka - lo.x) as u32 + first as u32, (ka - lo.x) as u32 + last as u32 + 1);
+                                    let span = &mut patch.spans[2 * row_index..2 * row_index + 2];
+                                    if span[0] == span[1] {
+                                        span[0] = first;
+                                    }
+                                    span[1] = last;
+                                }
+                            }
+                            continue;
+                        } else {
                         for (a, b) in runs {
                             if a > b {
                                 continue;
@@ -443,9 +531,10 @@ impl Sweep {
                                     continue;
                                 }
                                 let (off, m) = ((ka - a) as usize, (kb - ka + 1) as usize);
-                                let origin = inv.transform_point3(DVec3::new(f64::from(ka) * voxel, y, z)).as_vec3();
+                                // Points from the box's first voxel on, as the fast path's.
+                                let origin = inv.transform_point3(DVec3::new(f64::from(lo.x) * voxel, y, z)).as_vec3();
                                 rows.pose.resize(m, 0.0);
-                                burr.sdf_row(origin, (inv.matrix3.x_axis * voxel).as_vec3(), &mut rows.pose[..m]);
+                                burr.sdf_row_from(origin, (inv.matrix3.x_axis * voxel).as_vec3(), (ka - lo.x) as usize, &mut rows.pose[..m]);
                                 let best = &mut rows.best[off..off + m];
                                 let start = &mut rows.start[off..off + m];
                                 match start_free {
@@ -508,6 +597,7 @@ impl Sweep {
                                 },
                             }
                         }
+                        }
                     }
                 }
                 let below = |v: &f32| *v < cutoff as f32;
@@ -534,7 +624,7 @@ struct Behind {
 
 impl Behind {
     /// The voxel indices (inclusive; empty when lo > hi) of the row at (y, z) that lie behind.
-    fn row_gap(&self, y: f64, z: f64, voxel: f64) -> (i32, i32) {
+    fn row_gap(&self, y: f64, z: f64, inv_voxel: f64) -> (i32, i32) {
         let (dy, dz) = (y - self.origin.y, z - self.origin.z);
         // c·x + e ≤ 0 as an interval of x.
         let half_line = |c: f64, e: f64| -> (f64, f64) {
@@ -559,7 +649,7 @@ impl Behind {
         if !(lo <= hi) {
             return (1, 0);
         }
-        whole_voxels(lo, hi, voxel)
+        whole_voxels(lo, hi, inv_voxel)
     }
 }
 
@@ -567,21 +657,23 @@ impl Behind {
 /// instruction, and `f64::floor` there is a library call on every row.
 #[inline(always)]
 fn floor_i32(x: f64) -> i32 {
+    // Branch-free: which way a row's bound rounds is a coin toss to the predictor.
     let t = x as i32;
-    if f64::from(t) > x { t.saturating_sub(1) } else { t }
+    t.saturating_sub(i32::from(f64::from(t) > x))
 }
 
 /// ⌈x⌉ as an index (saturating; NaN gives 0).
 #[inline(always)]
 fn ceil_i32(x: f64) -> i32 {
     let t = x as i32;
-    if f64::from(t) < x { t.saturating_add(1) } else { t }
+    t.saturating_add(i32::from(f64::from(t) < x))
 }
 
 /// The voxel indices (inclusive) whose centres lie within [lo, hi] mm, a hair inside (saturating
-/// casts keep infinities in range).
-fn whole_voxels(lo: f64, hi: f64, voxel: f64) -> (i32, i32) {
-    (ceil_i32(lo / voxel + 1e-9), floor_i32(hi / voxel - 1e-9))
+/// casts keep infinities in range); `inv_voxel` is 1 / the voxel size (a product, not a
+/// division per row: the hair, 1e-9 voxel, is far above its rounding).
+fn whole_voxels(lo: f64, hi: f64, inv_voxel: f64) -> (i32, i32) {
+    (ceil_i32(lo * inv_voxel + 1e-9), floor_i32(hi * inv_voxel - 1e-9))
 }
 
 /// The runs (inclusive; empty ones have lo > hi) of [lo, hi] outside both `cuts` (inclusive
@@ -632,6 +724,8 @@ struct LineCapsule {
     qa: f64,
     inv_2qa: f64,
     inv_ux: f64,
+    /// False for the bare cylinder (no balls on its ends).
+    caps: bool,
 }
 
 impl LineCapsule {
@@ -640,7 +734,12 @@ impl LineCapsule {
         let len = (b - a).length();
         let u = if len > 0.0 { (b - a) / len } else { DVec3::ZERO };
         let qa = 1.0 - u.x * u.x;
-        LineCapsule { a, b, r2: r * r, u, len, qa, inv_2qa: 1.0 / (2.0 * qa), inv_ux: 1.0 / u.x }
+        LineCapsule { a, b, r2: r * r, u, len, qa, inv_2qa: 1.0 / (2.0 * qa), inv_ux: 1.0 / u.x, caps: true }
+    }
+
+    /// The cylinder of radius `r` about the segment from `a` to `b`, without the end balls.
+    fn cylinder(a: DVec3, b: DVec3, r: f64) -> Self {
+        LineCapsule { caps: false, ..Self::new(a, b, r) }
     }
 
     /// The x-interval of the line {(x, y, z)} within the capsule (convex: the hull of its two
@@ -653,7 +752,7 @@ impl LineCapsule {
                 hi = hi.max(h);
             }
         };
-        for c in [self.a, self.b] {
+        for c in [self.a, self.b].into_iter().filter(|_| self.caps) {
             let d2 = (y - c.y) * (y - c.y) + (z - c.z) * (z - c.z);
             if d2 <= self.r2 {
                 let half = (self.r2 - d2).sqrt();
@@ -713,6 +812,51 @@ fn segment_distance(p: DVec3, a: DVec3, b: DVec3) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The one-pose fast path and the slabs' row bounds give, bit for bit, the patch (values and
+    /// spans) that the general loop bounded by the head's one cylinder gives: every burr family,
+    /// random short translations from a pose the grids hold (the haptic tick's stroke, one pose
+    /// evaluated) and longer ones (several), any direction, any tilt.
+    #[test]
+    fn the_fast_sweep_matches_the_general_sweep_bit_for_bit() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut unit = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (voxel, band) = (0.05, 0.15);
+        let cutoff = (band + 1.5 * voxel) as f32;
+        let specs = ["cylinder_flat_012", "cylinder_round_012", "taper_flat_012", "taper_round_014", "inverted_cone_010", "flame_016", "pear_010", "needle_012", "xmas_016", "wheel_025"];
+        let (mut fast, mut general) = (Sweep::default(), Sweep { exhaustive: true, ..Default::default() });
+        for spec in specs {
+            let burr = Burr::parse(spec).unwrap();
+            let (mut one_pose, mut cut) = (0, 0);
+            for case in 0..16 {
+                let mut v = [0.0; 9];
+                v.iter_mut().for_each(|x| *x = unit());
+                let direction = |a: f64, b: f64, c: f64| DVec3::new(a - 0.5, b - 0.5, c - 0.5).normalize_or(DVec3::Z);
+                let tilt = DQuat::from_axis_angle(direction(v[0], v[1], v[2]), std::f64::consts::PI * v[3]);
+                let from = DAffine3::from_rotation_translation(tilt, DVec3::new(v[4], v[5], v[6]) - 0.5);
+                // Most strokes as a haptic tick's (under half a voxel), some a few voxels long.
+                let length = if case % 4 == 3 { 0.2 * v[7] } else { 0.024 * v[7] };
+                let to = DAffine3::from_rotation_translation(tilt, from.translation + direction(v[8], unit(), unit()) * length);
+                let done = Some(Done::Head(CutHead { to_tool: from.inverse(), offset: 0.0 }));
+                fast.build_skipping(&burr, from, to, voxel, band, done).unwrap();
+                general.build_skipping(&burr, from, to, voxel, band, done).unwrap();
+                let (f, g) = (&fast.patch, &general.patch);
+                assert_eq!((f.index_min, f.dims), (g.index_min, g.dims), "{spec} case {case}");
+                assert_eq!(f.spans, g.spans, "{spec} case {case}: spans");
+                for (n, (a, b)) in f.values.iter().zip(&g.values).enumerate() {
+                    assert_eq!(a.to_bits(), b.to_bits(), "{spec} case {case}: voxel {n}: {a} vs {b}");
+                }
+                one_pose += usize::from(fast.substeps == 1);
+                cut += usize::from(f.values.iter().any(|v| *v < cutoff));
+            }
+            assert!(one_pose >= 8 && cut == 16, "{spec}: {one_pose} one-pose strokes, {cut} that cut");
+        }
+    }
 
     /// The fast floor and ceiling agree with the library's wherever an i32 holds the result.
     #[test]
