@@ -1,6 +1,8 @@
 //! From a CBCT volume to one tooth's tissues: calibrate grey values, segment the tooth, crop to
 //! it, and turn each tissue into a smooth narrow-band level set at a voxel size finer than the
-//! scan's (the blurred indicator is meshed at 0.5 and converted back, so no staircase remains).
+//! scan's (the blurred indicator's iso-surface at 0.5: distances taken on the fine grid by
+//! [`crate::tissues::field`], or for the pulp the surface meshed and converted back, so no
+//! staircase remains).
 //! The pulp's surface is then moved along its normals to enclose its partial-volume measure
 //! (see [`NestedBuilder::match_partial_volume`]).
 use std::time::Instant;
@@ -12,6 +14,7 @@ use dentsim_vdb::{DenseVolume, LevelSet};
 use serde::Serialize;
 
 use crate::error::{invalid, Error, Result};
+use crate::tissues::field;
 use crate::tissues::model::TissueModel;
 use crate::tissues::table::TissueTable;
 
@@ -346,7 +349,7 @@ impl NestedBuilder<'_> {
         for (v, inside) in field.iter_mut().zip(&inside) {
             *v = if *inside { v.max(0.5 + GREY_SIDE) } else { v.min(0.5 - GREY_SIDE) };
         }
-        self.level_set(&field, 0.5, true).map(Some)
+        self.level_set(&field, 0.5, labels.contains(&Label::Dentin)).map(Some)
     }
 
     /// Places the surface between two voxels where the scan's grey says, not midway: at a voxel on
@@ -461,10 +464,19 @@ impl NestedBuilder<'_> {
         Ok(Some(VolumeFit { measure, offset_mm }))
     }
 
-    fn level_set(&self, field: &[f32], iso: f32, inside_above: bool) -> Result<LevelSet> {
-        let dims = self.scan.dims.map(|d| d as u32);
-        let dense = DenseVolume { dims, index_to_world: self.scan.index_to_world(), values: field };
-        Ok(LevelSet::from_dense(&dense, iso, inside_above, self.voxel_size_mm, 3.0)?)
+    /// The field's iso-surface as a level set at the model's voxel size: for the tooth and its
+    /// dentin core straight from the field ([`field`], ~2× faster), for the pulp and lesions by
+    /// meshing the field and converting the mesh back (OpenVDB's `levelSetRebuild`): their canals
+    /// and horns are 1–2 scan voxels wide, where the mesh's chords held the fast family's pulp
+    /// volumes and normals better (canine in water +23.5 % vs +26.9 %, normals 2–3° better).
+    fn level_set(&self, field: &[f32], iso: f32, wide: bool) -> Result<LevelSet> {
+        if !wide {
+            let dims = self.scan.dims.map(|d| d as u32);
+            let dense = DenseVolume { dims, index_to_world: self.scan.index_to_world(), values: field };
+            return Ok(LevelSet::from_dense(&dense, iso, true, self.voxel_size_mm, 3.0)?);
+        }
+        let grid = field::GridField { dims: self.scan.dims, index_to_world: self.scan.index_to_world(), values: field };
+        field::level_set_from_field(&grid, iso, self.voxel_size_mm, 3.0)
     }
 
     fn build(&mut self, progress: &mut dyn FnMut(&str)) -> Result<Vec<(Label, LevelSet)>> {
