@@ -254,11 +254,13 @@ pub fn level_set_from_field(field: &GridField<'_>, iso: f32, voxel_size: f64, ha
         })
         .collect();
     let mut feet: Vec<DVec3> = Vec::new();
+    let mut normals: Vec<DVec3> = Vec::new();
     let mut nearest: Vec<Vec<u32>> = vec![vec![NONE; LEAF_VOXELS]; leaves.len()];
     for (l, list) in seeds.into_iter().enumerate() {
         for (n, foot) in list {
             nearest[l][n] = feet.len() as u32;
             feet.push(foot);
+            normals.push((gradient_to_world * field.sample(inverse * (foot - t)).1).normalize_or_zero());
         }
     }
 
@@ -311,7 +313,16 @@ pub fn level_set_from_field(field: &GridField<'_>, iso: f32, voxel_size: f64, ha
                 .map(|n| {
                     let sign = if inside(l, n) { -1.0 } else { 1.0 };
                     let id = nearest[l][n];
-                    let d = if id == NONE { band } else { feet[id as usize].distance(voxel_of(l, n).as_dvec3() * h).min(band) };
+                    let d = if id == NONE {
+                        band
+                    } else {
+                        // The foot is a surface point near the closest one, not always it: the
+                        // distance to its tangent plane is off only by the surface's curvature
+                        // times the two's separation squared (nearly along the normal).
+                        let v = voxel_of(l, n).as_dvec3() * h - feet[id as usize];
+                        let along = v.dot(normals[id as usize]);
+                        if along * along >= 0.8 * v.length_squared() { along.abs() } else { v.length() }.min(band)
+                    };
                     (sign * d) as f32
                 })
                 .collect();

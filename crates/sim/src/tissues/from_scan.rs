@@ -482,17 +482,33 @@ impl NestedBuilder<'_> {
     fn build(&mut self, progress: &mut dyn FnMut(&str)) -> Result<Vec<(Label, LevelSet)>> {
         use Label::{Caries, Dentin, Enamel, Pulp};
         progress("pulp and caries");
-        let mut pulp = self.union(&[Pulp])?;
-        if let Some(grid) = pulp.as_mut() {
-            if let Some(fit) = self.match_partial_volume(grid, Pulp)? {
-                self.fits.push((Pulp, fit));
-            }
+        // The four unions are independent: built side by side (each is parallel inside, but
+        // has serial stretches that leave a core idle).
+        let this = &*self;
+        let ((inner, core), tooth) = rayon::join(
+            || {
+                rayon::join(
+                    || -> Result<_> {
+                        let mut pulp = this.union(&[Pulp])?;
+                        let fit = match pulp.as_mut() {
+                            Some(grid) => this.match_partial_volume(grid, Pulp)?,
+                            None => None,
+                        };
+                        Ok((pulp, fit, this.union(&[Caries])?))
+                    },
+                    || this.union(&[Dentin, Pulp, Caries]),
+                )
+            },
+            || this.union(&[Enamel, Dentin, Pulp, Caries]),
+        );
+        let (pulp, fit, caries) = inner?;
+        if let Some(fit) = fit {
+            self.fits.push((Pulp, fit));
         }
-        let caries = self.union(&[Caries])?;
         progress("dentin");
-        let core = self.union(&[Dentin, Pulp, Caries])?;
+        let core = core?;
         progress("enamel");
-        let tooth = self.union(&[Enamel, Dentin, Pulp, Caries])?;
+        let tooth = tooth?;
         let mut out = Vec::new();
         if let (Some(mut enamel), Some(core)) = (tooth, core.as_ref()) {
             enamel.csg_difference(core)?;
