@@ -512,7 +512,7 @@ pub fn segment_scan(quick: bool) -> Result<BenchRow> {
     Ok(row)
 }
 
-/// Every tooth of a 16-tooth arch (0.3 mm, 284×234×110; `quick`: the 3-tooth default scan) to
+/// Every tooth of a 16-tooth arch (0.3 mm, 284×244×110; `quick`: the 3-tooth default scan) to
 /// tissues at 0.05 mm by [`TissuesFromScan::run_all`] (calibrate once, find the teeth, each in its
 /// box). Goal: ≤ 20 s. Peer in the same run: what a user does without it, one `run` per tooth
 /// (its seed and box from the same teeth), each calibrating and segmenting the scan itself.

@@ -123,10 +123,10 @@ impl PhantomSpec {
         PhantomSpec { dims: [400, 400, 300], ..Default::default() }
     }
 
-    /// A scan of the whole arch of `tooth`'s jaw (16 teeth) at 0.3 mm, 85×70×33 mm: the
+    /// A scan of the whole arch of `tooth`'s jaw (16 teeth) at 0.3 mm, 85×73×33 mm: the
     /// benchmark of every tooth in one scan.
     pub fn arch(tooth: u8) -> Self {
-        PhantomSpec { tooth, arch: true, spacing_mm: 0.3, dims: [284, 234, 110], seed: u64::from(tooth), ..Default::default() }
+        PhantomSpec { tooth, arch: true, spacing_mm: 0.3, dims: [284, 244, 110], seed: u64::from(tooth), ..Default::default() }
     }
 
     /// Voxel size per axis, mm.
@@ -602,8 +602,10 @@ impl Phantom {
         let s = spec.spacing();
         let dir = spec.direction();
         let centre = if spec.arch {
-            let mean_y = teeth.iter().map(|t| t.center.y).sum::<f64>() / teeth.len() as f64;
-            anchor + axes[1] * mean_y + occlusal * -3.0
+            // midway along the arch's depth between the teeth's (padded) boxes
+            let ys = teeth.iter().flat_map(|t| (0..4).map(move |c| t.placed(DVec3::new(if c & 1 == 0 { t.bbox.0.x } else { t.bbox.1.x }, if c & 2 == 0 { t.bbox.0.y } else { t.bbox.1.y }, 0.0)).y));
+            let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
+            anchor + axes[1] * (0.5 * (lo + hi)) + occlusal * -3.0
         } else {
             anchor + occlusal * -3.0
         };
