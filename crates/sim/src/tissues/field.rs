@@ -1,9 +1,11 @@
 //! A narrow-band level set straight from a smooth field on a scan's grid: the surface is the
-//! field's iso-surface under trilinear interpolation, and each fine voxel near it gets its
-//! distance to that surface by projecting the voxel onto it (Newton steps along the field's
-//! gradient). This replaces meshing the field and converting the mesh back (OpenVDB's
-//! `levelSetRebuild`), which cost ~1 s per tissue at 0.05 mm; only leaves the surface's cells
-//! can reach within the band are visited, in parallel.
+//! field's iso-surface under trilinear interpolation. The fine voxels next to it (a face
+//! neighbour on the other side) are projected onto it (Newton steps along the field's gradient);
+//! every other voxel of the band takes the nearest of those surface points, carried outward from
+//! neighbour to neighbour, and its distance to that point's tangent plane. This replaces meshing
+//! the field and converting the mesh back (OpenVDB's `levelSetRebuild`: half the time on the
+//! bench scan); only leaves within the band of a cell the surface crosses are visited, in
+//! parallel.
 use dentsim_vdb::{LevelSet, LEAF_DIM};
 use glam::{DMat3, DVec3, IVec3};
 use rayon::prelude::*;
@@ -73,9 +75,9 @@ impl GridField<'_> {
 }
 
 /// Level set (voxel `voxel_size` mm, band `half_width` voxels each side) of where `field` >
-/// `iso`. Distances are to the trilinear iso-surface: by Newton projection where it converges
-/// (near the surface); elsewhere in the band (where the field is flat, far inside or outside
-/// on a fine scan), to the nearest surface point the near voxels projected onto.
+/// `iso`, with distances to the field's trilinear iso-surface (see the module's text). The
+/// distances come from surface points, not from the field's slope, so they hold where the field
+/// is flat (far inside or outside, on a fine scan).
 pub fn level_set_from_field(field: &GridField<'_>, iso: f32, voxel_size: f64, half_width: f64) -> Result<LevelSet> {
     let [nx, ny, nz] = field.dims;
     let iso = f64::from(iso);
