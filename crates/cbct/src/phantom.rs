@@ -55,6 +55,10 @@ pub struct PhantomSpec {
     /// like a scanner's file.
     #[serde(default)]
     pub integer: Option<(u32, bool)>,
+    /// The whole arch of the tooth's jaw (16 teeth on a curve, in bone and gum) instead of the
+    /// tooth and its neighbours ([`PhantomSpec::arch`]).
+    #[serde(default)]
+    pub arch: bool,
 }
 
 fn default_tooth() -> u8 {
@@ -108,6 +112,7 @@ impl Default for PhantomSpec {
             tilt_deg: [0.0; 3],
             spacing_xyz: None,
             integer: None,
+            arch: false,
         }
     }
 }
@@ -116,6 +121,12 @@ impl PhantomSpec {
     /// The 400×400×300 scan at 0.2 mm (80×80×60 mm) used by the benchmark.
     pub fn benchmark() -> Self {
         PhantomSpec { dims: [400, 400, 300], ..Default::default() }
+    }
+
+    /// A scan of the whole arch of `tooth`'s jaw (16 teeth) at 0.3 mm, 85×73×33 mm: the
+    /// benchmark of every tooth in one scan.
+    pub fn arch(tooth: u8) -> Self {
+        PhantomSpec { tooth, arch: true, spacing_mm: 0.3, dims: [284, 244, 110], seed: u64::from(tooth), ..Default::default() }
     }
 
     /// Voxel size per axis, mm.
@@ -132,7 +143,7 @@ impl PhantomSpec {
 
     /// The jaw scene of 35, 36, 37 (the phantom before the family).
     fn is_classic(&self) -> bool {
-        self.tooth == 36 && self.roots.is_none() && self.medium == Medium::Jaw && self.neighbours
+        self.tooth == 36 && self.roots.is_none() && self.medium == Medium::Jaw && self.neighbours && !self.arch
     }
 }
 
@@ -214,6 +225,8 @@ impl Root {
 struct Tooth {
     fdi: u8,
     center: DVec3,
+    /// Turned about the occlusal axis (cos, sin) in an arch; `None`: the scene's own axes.
+    yaw: Option<(f64, f64)>,
     half: DVec3,
     #[allow(dead_code)]
     crown_h: f64,
@@ -255,6 +268,23 @@ impl ToothEval {
 }
 
 impl Tooth {
+    /// A scene point (local frame) in the tooth's own frame.
+    fn own(&self, l: DVec3) -> DVec3 {
+        let q = l - self.center;
+        match self.yaw {
+            None => q,
+            Some((c, s)) => DVec3::new(c * q.x + s * q.y, -s * q.x + c * q.y, q.z),
+        }
+    }
+
+    /// A point of the tooth's own frame in the scene's local frame.
+    fn placed(&self, q: DVec3) -> DVec3 {
+        match self.yaw {
+            None => q + self.center,
+            Some((c, s)) => DVec3::new(c * q.x - s * q.y, s * q.x + c * q.y, q.z) + self.center,
+        }
+    }
+
     fn molar(fdi: u8, center: DVec3, scale: f64, caries: bool, metal: bool) -> Tooth {
         let s = scale;
         let h = 7.3 * s;
@@ -280,6 +310,7 @@ impl Tooth {
         Tooth {
             fdi,
             center,
+            yaw: None,
             half,
             crown_h: h,
             cusps,
@@ -297,6 +328,7 @@ impl Tooth {
         Tooth {
             fdi,
             center,
+            yaw: None,
             half: DVec3::new(3.5, 3.9, 0.5 * (h - 2.2)),
             crown_h: h,
             cusps: vec![(DVec3::new(0.0, -1.6, h - 2.4), 2.4), (DVec3::new(0.2, 2.0, h - 2.8), 1.8)],
@@ -316,6 +348,7 @@ impl Tooth {
         Tooth {
             fdi,
             center,
+            yaw: None,
             half: DVec3::new(w, 3.0, 0.5 * (h - 2.4)),
             crown_h: h,
             cusps,
@@ -334,6 +367,7 @@ impl Tooth {
         Tooth {
             fdi,
             center,
+            yaw: None,
             half: DVec3::new(3.4, 3.6, 0.5 * (h - 3.0)),
             crown_h: h,
             cusps: vec![(DVec3::new(0.0, 0.0, h - 2.2), 2.2)],
@@ -451,6 +485,48 @@ impl Tooth {
 }
 
 /// Where each tooth sits in LPS, and the mandible around them.
+/// The 16 teeth of a jaw (the quadrant of `fdi` and its mirror) on a parabola y = 0.05 x²
+/// (mm, frame of the arch: x left, y back, z occlusal), ARCH_GAP_MM apart at their widest,
+/// each turned to follow the curve; the tooth `fdi` first.
+/// Like the family's neighbours (0.5 mm), a little more: at 0.3 mm voxels the blur joins
+/// crowns 0.5 mm apart.
+const ARCH_GAP_MM: f64 = 0.8;
+
+fn arch_teeth(fdi: u8, upper: bool) -> Vec<Tooth> {
+    const CURVE: f64 = 0.05;
+    let widest = |tooth: &Tooth| tooth.half.x + tooth.cusps.iter().map(|(c, r)| c.x.abs() + r - tooth.half.x).fold(0.0, f64::max).max(0.0);
+    let (left, right) = if upper { (2u8, 1u8) } else { (3, 4) };
+    let mut teeth = Vec::new();
+    for (q, side) in [(left, 1.0), (right, -1.0)] {
+        // arc length along the curve from the midline
+        let (mut x, mut walked) = (0.0f64, 0.0f64);
+        let mut advance = |to: f64| {
+            while walked < to {
+                let dx = 0.01;
+                walked += dx * (1.0 + (2.0 * CURVE * (x + 0.5 * dx)).powi(2)).sqrt();
+                x += dx;
+            }
+            x
+        };
+        let mut at = 0.5 * ARCH_GAP_MM;
+        for t in 1..=8u8 {
+            let number = q * 10 + t;
+            let half = widest(&Tooth::of_type(number, DVec3::ZERO, false, false));
+            at += half;
+            let x = advance(at);
+            at += half + ARCH_GAP_MM;
+            let centre = DVec3::new(side * x, CURVE * x * x, 0.0);
+            let distal = DVec3::new(side, 2.0 * CURVE * x, 0.0).normalize();
+            let mut tooth = Tooth::of_type(number, centre, false, false);
+            tooth.yaw = Some((distal.x, distal.y));
+            teeth.push(tooth);
+        }
+    }
+    let main = teeth.iter().position(|t| t.fdi == fdi).unwrap_or(0);
+    teeth.swap(0, main);
+    teeth
+}
+
 #[derive(Debug, Clone)]
 pub struct Phantom {
     pub spec: PhantomSpec,
@@ -484,9 +560,15 @@ impl Phantom {
         let distal = DVec3::new(if left { 0.25 } else { -0.25 }, 1.0, 0.0).normalize();
         let occlusal = if upper { -DVec3::Z } else { DVec3::Z };
         let lingual = occlusal.cross(distal).normalize() * -1.0;
-        let axes = [distal, lingual, occlusal];
-        let anchor = DVec3::new(if left { 24.0 } else { -24.0 }, 18.0 - 2.5 * (6.0 - t as f64), if upper { -5.0 } else { -35.0 });
-        let teeth = if spec.is_classic() {
+        let mut axes = [distal, lingual, occlusal];
+        let mut anchor = DVec3::new(if left { 24.0 } else { -24.0 }, 18.0 - 2.5 * (6.0 - t as f64), if upper { -5.0 } else { -35.0 });
+        let teeth = if spec.arch {
+            // The arch's frame: x the patient's left, y posterior (lower jaw) or anterior
+            // (upper), z occlusal; its origin between the central incisors' CEJs.
+            axes = if upper { [DVec3::X, -DVec3::Y, -DVec3::Z] } else { [DVec3::X, DVec3::Y, DVec3::Z] };
+            anchor = DVec3::new(0.0, -12.0, anchor.z);
+            arch_teeth(fdi, upper)
+        } else if spec.is_classic() {
             vec![
                 Tooth::premolar(35, DVec3::new(-9.5, 0.2, 0.3)),
                 Tooth::molar(36, DVec3::ZERO, 1.0, spec.caries, false),
@@ -519,7 +601,14 @@ impl Phantom {
         };
         let s = spec.spacing();
         let dir = spec.direction();
-        let centre = anchor + occlusal * -3.0;
+        let centre = if spec.arch {
+            // midway along the arch's depth between the teeth's (padded) boxes
+            let ys = teeth.iter().flat_map(|t| (0..4).map(move |c| t.placed(DVec3::new(if c & 1 == 0 { t.bbox.0.x } else { t.bbox.1.x }, if c & 2 == 0 { t.bbox.0.y } else { t.bbox.1.y }, 0.0)).y));
+            let (lo, hi) = ys.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), y| (lo.min(y), hi.max(y)));
+            anchor + axes[1] * (0.5 * (lo + hi)) + occlusal * -3.0
+        } else {
+            anchor + occlusal * -3.0
+        };
         // grid centred on `centre` along its own axes
         let mut origin = centre.to_array();
         for c in 0..3 {
@@ -550,10 +639,22 @@ impl Phantom {
     }
 
     fn bone(&self, l: DVec3) -> f64 {
+        if self.spec.arch {
+            return self.along_arch(l, |q, w| sd_round_box(q - DVec3::new(0.0, 0.0, -16.5), DVec3::new(w, 6.8, 15.0), 2.5));
+        }
         sd_round_box(l - DVec3::new(0.0, 0.0, -16.5), DVec3::new(40.0, 6.8, 15.0), 2.5)
     }
     fn gum(&self, l: DVec3) -> f64 {
+        if self.spec.arch {
+            return self.along_arch(l, |q, w| sd_round_box(q - DVec3::new(0.0, 0.0, -15.0), DVec3::new(w + 1.0, 8.2, 16.2), 3.0));
+        }
         sd_round_box(l - DVec3::new(0.0, 0.0, -15.0), DVec3::new(41.0, 8.2, 16.2), 3.0)
+    }
+
+    /// The union of a block under each tooth of the arch, in the tooth's frame, each reaching
+    /// past its neighbours' (`block(point in the tooth's frame, half length)`).
+    fn along_arch(&self, l: DVec3, block: impl Fn(DVec3, f64) -> f64) -> f64 {
+        self.teeth.iter().map(|t| block(t.own(l), t.bbox.1.x + 1.5)).fold(f64::INFINITY, f64::min)
     }
 
     fn scene(&self, p: DVec3) -> SceneEval {
@@ -562,7 +663,7 @@ impl Phantom {
         let mut teeth_min = f64::INFINITY;
         let mut inside: Option<(ToothEval, &Tooth)> = None;
         for t in &self.teeth {
-            let q = l - t.center;
+            let q = t.own(l);
             let out = (t.bbox.0 - q).max(q - t.bbox.1).max(DVec3::ZERO).length();
             if out > PDL_MM + 0.05 {
                 margin = margin.min(out - PDL_MM - 0.05);
@@ -620,7 +721,7 @@ impl Phantom {
         let mut teeth_min = f64::INFINITY;
         let mut best = f64::INFINITY;
         for t in &self.teeth {
-            let e = t.eval(l - t.center);
+            let e = t.eval(t.own(l));
             teeth_min = teeth_min.min(e.tooth);
             let special = e.caries.min(e.metal);
             let v = match label {
@@ -648,7 +749,7 @@ impl Phantom {
     /// SDF of one tooth's tissue (the tooth of interest is 36). `None` for an unknown FDI.
     pub fn tooth_sdf(&self, fdi: u8, label: Label, p: DVec3) -> Option<f64> {
         let t = self.teeth.iter().find(|t| t.fdi == fdi)?;
-        let e = t.eval(self.to_local(p) - t.center);
+        let e = t.eval(t.own(self.to_local(p)));
         let special = e.caries.min(e.metal);
         Some(match label {
             Label::Enamel => e.tooth.max(-e.dentin_core).max(-special),
@@ -666,11 +767,11 @@ impl Phantom {
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
         for c in 0..8 {
-            let l = DVec3::new(
+            let l = t.placed(DVec3::new(
                 if c & 1 == 0 { t.bbox.0.x } else { t.bbox.1.x },
                 if c & 2 == 0 { t.bbox.0.y } else { t.bbox.1.y },
                 if c & 4 == 0 { t.bbox.0.z } else { t.bbox.1.z },
-            ) + t.center;
+            ));
             let w = self.to_world(l);
             lo = lo.min(w);
             hi = hi.max(w);
@@ -681,7 +782,7 @@ impl Phantom {
     /// LPS point in the middle of a tooth's crown (a seed for segmentation).
     pub fn tooth_seed(&self, fdi: u8) -> Option<[f64; 3]> {
         let t = self.teeth.iter().find(|t| t.fdi == fdi)?;
-        Some(self.to_world(t.center + DVec3::new(0.0, 0.0, 2.0)).to_array())
+        Some(self.to_world(t.placed(DVec3::new(0.0, 0.0, 2.0))).to_array())
     }
 
     /// Volume of one tissue of tooth 36 in mm³ (see [`Phantom::tooth_volumes_mm3`]).
@@ -792,7 +893,7 @@ impl Phantom {
         let [nx, ny, _] = lv.dims;
         lv.labels.par_chunks_mut(nx * ny).enumerate().for_each(|(k, sl)| {
             for (n, l) in sl.iter_mut().enumerate() {
-                if *l >= Label::Dentin as u8 && t.eval(self.to_local(self.voxel_center(n % nx, n / nx, k)) - t.center).tooth >= 0.0 {
+                if *l >= Label::Dentin as u8 && t.eval(t.own(self.to_local(self.voxel_center(n % nx, n / nx, k)))).tooth >= 0.0 {
                     *l = Label::Air as u8;
                 }
             }
@@ -877,7 +978,7 @@ impl Phantom {
     fn add_streaks(&self, hu: &mut [f32]) {
         let Some(t) = self.teeth.iter().find(|t| t.metal.is_some()) else { return };
         let Some((a, b)) = t.metal else { return };
-        let centre = self.to_world(t.center + (a + b) * 0.5);
+        let centre = self.to_world(t.placed((a + b) * 0.5));
         let [nx, ny, _] = self.spec.dims;
         let (z0, z1) = (centre.z - 2.0, centre.z + 2.0);
         hu.par_chunks_mut(nx * ny).enumerate().for_each(|(k, sl)| {

@@ -147,6 +147,12 @@ impl BoxGrid {
     }
 }
 
+/// With a seed and no box, markers are sought this far (mm) around the seed first: the longest
+/// tooth (a canine, ~27 mm) reaches no farther from a point in its crown.
+const SEARCH_MM: f64 = 22.0;
+/// A tooth found this near (voxels) a side of that search box is sought again in the whole scan.
+const SEARCH_MARGIN: usize = 4;
+
 /// Widest mouth (mm) through which a lesion open to the surface is still told from the outside:
 /// the radius of the ball that closes the tooth's outline over it. A lesion under a fissure whose
 /// roof is thinner than the scan's blur opens ~1.4 mm wide at a 0.25 mm point spread.
@@ -635,50 +641,97 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             });
         }
     }
-    let (id, sizes) = tooth_markers(&g, vol, &core, opts);
-    let keep: Vec<bool> = match &opts.tooth {
+    // Markers and components only in a box: the selection's, or with a seed alone a ball's box
+    // around it that any tooth reaches no farther than; a tooth that comes near that box's side
+    // is segmented again in the whole scan. (The scan outside is classified above all the same.)
+    let seed_index = match &opts.tooth {
         Some(sel) => {
             let s = vol.world_to_index(sel.seed).ok_or_else(|| Error::invalid("tooth.seed", "degenerate geometry"))?;
             let si = [s[0].round(), s[1].round(), s[2].round()];
             if (0..3).any(|c| si[c] < 0.0 || si[c] >= vol.dims[c] as f64) {
                 return Err(Error::invalid("tooth.seed", format!("{:?} lies outside the scan", sel.seed)));
             }
-            let sn = vol.index(si[0] as usize, si[1] as usize, si[2] as usize);
-            // component at the seed, else the nearest one (breadth-first from the seed)
-            let mut target = id[sn];
-            if target == 0 {
-                let all = vec![true; n];
-                let mut q = VecDeque::from([sn]);
-                let mut seen = vec![false; n];
-                seen[sn] = true;
-                let mut nb = [0usize; 6];
-                let mut steps = 0;
-                'search: while let Some(m) = q.pop_front() {
-                    steps += 1;
-                    if steps > 2_000_000 {
-                        break;
-                    }
-                    let c = g.nb6(m, &mut nb);
-                    for &t in &nb[..c] {
-                        if all[t] && !seen[t] {
-                            if id[t] != 0 {
-                                target = id[t];
-                                break 'search;
+            Some(si.map(|v| v as usize))
+        }
+        None => None,
+    };
+    let searched = opts.tooth.as_ref().is_some_and(|sel| sel.bounds.is_none());
+    let whole = ([0usize; 3], vol.dims);
+    let mut region = match seed_index {
+        Some(si) if searched => {
+            let lo = [0, 1, 2].map(|c| si[c].saturating_sub((SEARCH_MM / vol.spacing[c]).ceil() as usize));
+            let hi = [0, 1, 2].map(|c| (si[c] + (SEARCH_MM / vol.spacing[c]).ceil() as usize + 1).min(vol.dims[c]));
+            (lo, hi)
+        }
+        Some(si) if (0..3).all(|c| si[c] >= lo[c] && si[c] < hi[c]) && (0..3).all(|c| lo[c] < hi[c]) => (lo, hi),
+        _ => whole,
+    };
+    let tooth = loop {
+        let bx = BoxGrid::new(region.0, region.1.map(|v| v - 1), &g);
+        let bcore = bx.gather(&core);
+        let (id, sizes) = tooth_markers(&bx.g, vol, &bcore, opts);
+        let bn = bx.g.n();
+        let keep: Vec<bool> = match (&opts.tooth, seed_index) {
+            (Some(sel), Some(si)) => {
+                let sn = (si[0] - region.0[0]) + bx.g.d[0] * ((si[1] - region.0[1]) + bx.g.d[1] * (si[2] - region.0[2]));
+                // component at the seed, else the nearest one (breadth-first from the seed)
+                let mut target = id[sn];
+                if target == 0 {
+                    let mut q = VecDeque::from([sn]);
+                    let mut seen = vec![false; bn];
+                    seen[sn] = true;
+                    let mut nb = [0usize; 6];
+                    let mut steps = 0;
+                    'search: while let Some(m) = q.pop_front() {
+                        steps += 1;
+                        if steps > 2_000_000 {
+                            break;
+                        }
+                        let c = bx.g.nb6(m, &mut nb);
+                        for &t in &nb[..c] {
+                            if !seen[t] {
+                                if id[t] != 0 {
+                                    target = id[t];
+                                    break 'search;
+                                }
+                                seen[t] = true;
+                                q.push_back(t);
                             }
-                            seen[t] = true;
-                            q.push_back(t);
                         }
                     }
                 }
+                if target == 0 {
+                    if region != whole && searched {
+                        region = whole;
+                        continue;
+                    }
+                    return Err(Error::invalid("tooth.seed", format!("no tooth (dentin/enamel) found near {:?}", sel.seed)));
+                }
+                id.iter().map(|&c| c == target).collect()
             }
-            if target == 0 {
-                return Err(Error::invalid("tooth.seed", format!("no tooth (dentin/enamel) found near {:?}", sel.seed)));
+            _ => id.iter().map(|&c| c != 0 && sizes[c as usize] >= opts.min_component_voxels.max(1)).collect(),
+        };
+        if region != whole && searched {
+            // Within SEARCH_MARGIN voxels of a side of the box that is not the scan's: the tooth
+            // may go on beyond it.
+            let near_side = (0..bn).filter(|&l| keep[l]).any(|l| {
+                let p = bx.g.ijk(l);
+                (0..3).any(|c| (p[c] < SEARCH_MARGIN && region.0[c] > 0) || (p[c] + SEARCH_MARGIN >= bx.g.d[c] && region.1[c] < vol.dims[c]))
+            });
+            if near_side {
+                region = whole;
+                continue;
             }
-            id.iter().map(|&c| c == target).collect()
         }
-        None => id.iter().map(|&c| c != 0 && sizes[c as usize] >= opts.min_component_voxels.max(1)).collect(),
+        if region == whole {
+            break keep;
+        }
+        let mut tooth = vec![false; n];
+        for l in (0..bn).filter(|&l| keep[l]) {
+            tooth[bx.global(l)] = true;
+        }
+        break tooth;
     };
-    let tooth = keep;
     // Cavities, in a box around the tooth with room for the lesion search's closing.
     let (mut blo, mut bhi) = ([usize::MAX; 3], [0usize; 3]);
     for (m, _) in tooth.iter().enumerate().filter(|(_, t)| **t) {

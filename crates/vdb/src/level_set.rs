@@ -163,6 +163,21 @@ impl LevelSet {
         Ok(out)
     }
 
+    /// A level set from leaves of signed distances computed elsewhere (each leaf's origin in
+    /// voxels, a multiple of [`LEAF_DIM`], and its 512 values, z fastest, mm, negative inside).
+    /// The leaves must hold the whole narrow band: the inside beyond it is signed by flood fill.
+    pub fn from_leaves(voxel_size: f64, half_width: f64, leaves: &[(IVec3, Vec<f32>)]) -> Result<Self> {
+        let mut out = Self::new(voxel_size, half_width)?;
+        for (origin, values) in leaves {
+            out.inner
+                .pin_mut()
+                .set_leaf(origin.to_array(), values)
+                .map_err(openvdb("build from leaves"))?;
+        }
+        out.inner.pin_mut().finish_build();
+        Ok(out)
+    }
+
     /// OpenVDB's `meshToLevelSet` of a closed triangle mesh (world mm).
     pub fn from_mesh(mesh: &TriMesh, voxel_size: f64, half_width: f64) -> Result<Self> {
         Self::wrap(

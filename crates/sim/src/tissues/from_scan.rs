@@ -1,6 +1,8 @@
 //! From a CBCT volume to one tooth's tissues: calibrate grey values, segment the tooth, crop to
 //! it, and turn each tissue into a smooth narrow-band level set at a voxel size finer than the
-//! scan's (the blurred indicator is meshed at 0.5 and converted back, so no staircase remains).
+//! scan's (the blurred indicator's iso-surface at 0.5: distances taken on the fine grid by
+//! [`crate::tissues::field`], or for the pulp the surface meshed and converted back, so no
+//! staircase remains).
 //! The pulp's surface is then moved along its normals to enclose its partial-volume measure
 //! (see [`NestedBuilder::match_partial_volume`]).
 use std::time::Instant;
@@ -13,6 +15,7 @@ use dentsim_vdb::{DenseVolume, LevelSet};
 use serde::Serialize;
 
 use crate::error::{invalid, stopped, Error, Result};
+use crate::tissues::field;
 use crate::tissues::model::TissueModel;
 use crate::tissues::table::TissueTable;
 
@@ -364,7 +367,7 @@ impl NestedBuilder<'_> {
         for (v, inside) in field.iter_mut().zip(&inside) {
             *v = if *inside { v.max(0.5 + GREY_SIDE) } else { v.min(0.5 - GREY_SIDE) };
         }
-        self.level_set(&field, 0.5, true).map(Some)
+        self.level_set(&field, 0.5, labels.contains(&Label::Dentin)).map(Some)
     }
 
     /// Places the surface between two voxels where the scan's grey says, not midway: at a voxel on
@@ -479,10 +482,19 @@ impl NestedBuilder<'_> {
         Ok(Some(VolumeFit { measure, offset_mm }))
     }
 
-    fn level_set(&self, field: &[f32], iso: f32, inside_above: bool) -> Result<LevelSet> {
-        let dims = self.scan.dims.map(|d| d as u32);
-        let dense = DenseVolume { dims, index_to_world: self.scan.index_to_world(), values: field };
-        Ok(LevelSet::from_dense(&dense, iso, inside_above, self.voxel_size_mm, 3.0)?)
+    /// The field's iso-surface as a level set at the model's voxel size: for the tooth and its
+    /// dentin core straight from the field ([`field`], ~2× faster), for the pulp and lesions by
+    /// meshing the field and converting the mesh back (OpenVDB's `levelSetRebuild`): their canals
+    /// and horns are 1–2 scan voxels wide, where the mesh's chords held the fast family's pulp
+    /// volumes and normals better (canine in water +23.5 % vs +26.9 %, normals 2–3° better).
+    fn level_set(&self, field: &[f32], iso: f32, wide: bool) -> Result<LevelSet> {
+        if !wide {
+            let dims = self.scan.dims.map(|d| d as u32);
+            let dense = DenseVolume { dims, index_to_world: self.scan.index_to_world(), values: field };
+            return Ok(LevelSet::from_dense(&dense, iso, true, self.voxel_size_mm, 3.0)?);
+        }
+        let grid = field::GridField { dims: self.scan.dims, index_to_world: self.scan.index_to_world(), values: field };
+        field::level_set_from_field(&grid, iso, self.voxel_size_mm, 3.0)
     }
 
     /// The tissues' level sets; `go_on(step)` answering false stops before the next step.
@@ -490,17 +502,33 @@ impl NestedBuilder<'_> {
         use Label::{Caries, Dentin, Enamel, Pulp};
         let mut step = |name: &str| if go_on(name) { Ok(()) } else { Err(stopped("segmentation")) };
         step("pulp and caries")?;
-        let mut pulp = self.union(&[Pulp])?;
-        if let Some(grid) = pulp.as_mut() {
-            if let Some(fit) = self.match_partial_volume(grid, Pulp)? {
-                self.fits.push((Pulp, fit));
-            }
+        // The four unions are independent: built side by side (each is parallel inside, but
+        // has serial stretches that leave a core idle).
+        let this = &*self;
+        let ((inner, core), tooth) = rayon::join(
+            || {
+                rayon::join(
+                    || -> Result<_> {
+                        let mut pulp = this.union(&[Pulp])?;
+                        let fit = match pulp.as_mut() {
+                            Some(grid) => this.match_partial_volume(grid, Pulp)?,
+                            None => None,
+                        };
+                        Ok((pulp, fit, this.union(&[Caries])?))
+                    },
+                    || this.union(&[Dentin, Pulp, Caries]),
+                )
+            },
+            || this.union(&[Enamel, Dentin, Pulp, Caries]),
+        );
+        let (pulp, fit, caries) = inner?;
+        if let Some(fit) = fit {
+            self.fits.push((Pulp, fit));
         }
-        let caries = self.union(&[Caries])?;
         step("dentin")?;
-        let core = self.union(&[Dentin, Pulp, Caries])?;
+        let core = core?;
         step("enamel")?;
-        let tooth = self.union(&[Enamel, Dentin, Pulp, Caries])?;
+        let tooth = tooth?;
         let mut out = Vec::new();
         if let (Some(mut enamel), Some(core)) = (tooth, core.as_ref()) {
             enamel.csg_difference(core)?;

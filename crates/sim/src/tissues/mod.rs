@@ -2,6 +2,7 @@
 //! capsule phantom, tissues from a CBCT scan, their surfaces (the one mesher) and exports.
 pub mod capsule;
 pub mod export;
+pub mod field;
 pub mod from_scan;
 pub mod model;
 pub mod surface;

@@ -1,0 +1,335 @@
+//! A narrow-band level set straight from a smooth field on a scan's grid: the surface is the
+//! field's iso-surface under trilinear interpolation. The fine voxels next to it (a face
+//! neighbour on the other side) are projected onto it (Newton steps along the field's gradient);
+//! every other voxel of the band takes the nearest of those surface points, carried outward from
+//! neighbour to neighbour, and its distance to that point's tangent plane. This replaces meshing
+//! the field and converting the mesh back (OpenVDB's `levelSetRebuild`: half the time on the
+//! bench scan); only leaves within the band of a cell the surface crosses are visited, in
+//! parallel.
+use dentsim_vdb::{LevelSet, LEAF_DIM};
+use glam::{DMat3, DVec3, IVec3};
+use rayon::prelude::*;
+
+use crate::error::Result;
+
+/// Voxels of a leaf (8³), z fastest as OpenVDB stores them.
+const LEAF_VOXELS: usize = (LEAF_DIM * LEAF_DIM * LEAF_DIM) as usize;
+const NEWTON_STEPS: usize = 12;
+/// A projection has converged when the field is this close to the iso value.
+const CONVERGED: f64 = 1e-4;
+
+/// The field on its grid (x fastest) with its voxel→world affine (row-major 4×4).
+pub struct GridField<'a> {
+    pub dims: [usize; 3],
+    pub index_to_world: [f64; 16],
+    pub values: &'a [f32],
+}
+
+impl GridField<'_> {
+    fn frame(&self) -> (DMat3, DVec3) {
+        let m = &self.index_to_world;
+        let a = DMat3::from_cols(DVec3::new(m[0], m[4], m[8]), DVec3::new(m[1], m[5], m[9]), DVec3::new(m[2], m[6], m[10]));
+        (a, DVec3::new(m[3], m[7], m[11]))
+    }
+
+    fn at(&self, i: usize, j: usize, k: usize) -> f64 {
+        f64::from(self.values[i + self.dims[0] * (j + self.dims[1] * k)])
+    }
+
+    /// Trilinear value and gradient (per index unit) at a continuous index; outside the grid
+    /// the border's values continue. (Catmull–Rom was tried: enamel normals 0.3° better,
+    /// dentin's 1° worse, pulp volume further off, at 8× the samples.)
+    fn sample(&self, u: DVec3) -> (f64, DVec3) {
+        let mut base = [0usize; 3];
+        let mut t = [0f64; 3];
+        for c in 0..3 {
+            let n = self.dims[c];
+            let x = u[c].clamp(0.0, (n - 1) as f64);
+            let i = (x.floor() as usize).min(n.saturating_sub(2));
+            base[c] = i;
+            t[c] = if n > 1 { x - i as f64 } else { 0.0 };
+        }
+        let step = |c: usize| usize::from(self.dims[c] > 1);
+        let [i, j, k] = base;
+        let (di, dj, dk) = (step(0), step(1), step(2));
+        let v = [
+            self.at(i, j, k),
+            self.at(i + di, j, k),
+            self.at(i, j + dj, k),
+            self.at(i + di, j + dj, k),
+            self.at(i, j, k + dk),
+            self.at(i + di, j, k + dk),
+            self.at(i, j + dj, k + dk),
+            self.at(i + di, j + dj, k + dk),
+        ];
+        let [x, y, z] = t;
+        let lerp = |a: f64, b: f64, s: f64| a + (b - a) * s;
+        let (x00, x10, x01, x11) = (lerp(v[0], v[1], x), lerp(v[2], v[3], x), lerp(v[4], v[5], x), lerp(v[6], v[7], x));
+        let (y0, y1) = (lerp(x00, x10, y), lerp(x01, x11, y));
+        let value = lerp(y0, y1, z);
+        let gx = lerp(lerp(v[1] - v[0], v[3] - v[2], y), lerp(v[5] - v[4], v[7] - v[6], y), z);
+        let gy = lerp(x10 - x00, x11 - x01, z);
+        let gz = y1 - y0;
+        (value, DVec3::new(gx, gy, gz))
+    }
+}
+
+/// Level set (voxel `voxel_size` mm, band `half_width` voxels each side) of where `field` >
+/// `iso`, with distances to the field's trilinear iso-surface (see the module's text). The
+/// distances come from surface points, not from the field's slope, so they hold where the field
+/// is flat (far inside or outside, on a fine scan).
+pub fn level_set_from_field(field: &GridField<'_>, iso: f32, voxel_size: f64, half_width: f64) -> Result<LevelSet> {
+    let [nx, ny, nz] = field.dims;
+    let iso = f64::from(iso);
+    let h = voxel_size;
+    let band = half_width * h;
+    let (a, t) = field.frame();
+    let inverse = a.inverse();
+    let gradient_to_world = inverse.transpose();
+    let spacing = [a.x_axis.length(), a.y_axis.length(), a.z_axis.length()];
+    let max_step = 0.5 * spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+
+    // Leaves within the band of a cell the iso-surface passes through.
+    let cells = (nx.max(2) - 1) * (ny.max(2) - 1) * (nz.max(2) - 1);
+    let (cx, cy) = (nx.max(2) - 1, ny.max(2) - 1);
+    let mut leaves: Vec<IVec3> = (0..cells)
+        .into_par_iter()
+        .flat_map_iter(|c| {
+            let (i, j, k) = (c % cx, (c / cx) % cy, c / (cx * cy));
+            let mut lo = f64::INFINITY;
+            let mut hi = f64::NEG_INFINITY;
+            for corner in 0..8 {
+                let p = [i + (corner & 1), j + ((corner >> 1) & 1), k + ((corner >> 2) & 1)];
+                let v = field.at(p[0].min(nx - 1), p[1].min(ny - 1), p[2].min(nz - 1));
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+            let crosses = lo <= iso && hi > iso;
+            let (mut wlo, mut whi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+            if crosses {
+                for corner in 0..8 {
+                    let u = DVec3::new((i + (corner & 1)) as f64, (j + ((corner >> 1) & 1)) as f64, (k + ((corner >> 2) & 1)) as f64);
+                    let w = a * u + t;
+                    wlo = wlo.min(w);
+                    whi = whi.max(w);
+                }
+            }
+            let reach = band + h;
+            let first = ((wlo - reach) / h).floor().as_ivec3().div_euclid(IVec3::splat(LEAF_DIM));
+            let last = ((whi + reach) / h).floor().as_ivec3().div_euclid(IVec3::splat(LEAF_DIM));
+            let range = move |lo: i32, hi: i32| if crosses { lo..=hi } else { 1..=0 };
+            range(first.x, last.x).flat_map(move |x| range(first.y, last.y).flat_map(move |y| range(first.z, last.z).map(move |z| IVec3::new(x, y, z) * LEAF_DIM)))
+        })
+        .collect();
+    leaves.par_sort_unstable_by_key(|o| (o.x, o.y, o.z));
+    leaves.dedup();
+
+    let origin_index: std::collections::HashMap<IVec3, usize> = leaves.iter().enumerate().map(|(i, &o)| (o, i)).collect();
+    // Each leaf's face-neighbour leaves (−x, +x, −y, +y, −z, +z), where they exist.
+    let around: Vec<[usize; 6]> = leaves
+        .iter()
+        .map(|&o| {
+            let mut out = [usize::MAX; 6];
+            for (slot, out) in out.iter_mut().enumerate() {
+                let mut q = o;
+                q[slot / 2] += if slot % 2 == 0 { -LEAF_DIM } else { LEAF_DIM };
+                if let Some(&l) = origin_index.get(&q) {
+                    *out = l;
+                }
+            }
+            out
+        })
+        .collect();
+    drop(origin_index);
+    let voxel_of = |leaf: usize, n: usize| leaves[leaf] + IVec3::new((n >> 6) as i32, ((n >> 3) & 7) as i32, (n & 7) as i32);
+    // Voxel `n` of leaf `leaf` stepped by one along `axis` (±1): (leaf, n), if that leaf exists.
+    let step = |leaf: usize, n: usize, axis: usize, dir: i32| -> Option<(usize, usize)> {
+        let shift = [6, 3, 0][axis];
+        let c = ((n >> shift) & 7) as i32 + dir;
+        if (0..LEAF_DIM).contains(&c) {
+            return Some((leaf, if dir > 0 { n + (1 << shift) } else { n - (1 << shift) }));
+        }
+        let m = around[leaf][2 * axis + usize::from(dir > 0)];
+        let wrapped = (n & !(7 << shift)) | ((c.rem_euclid(LEAF_DIM) as usize) << shift);
+        (m != usize::MAX).then_some((m, wrapped))
+    };
+
+    // Every voxel's side of the surface: its cell's where the surface does not cross the cell
+    // (the trilinear field there lies between its corners' values), else the field sampled.
+    let cx = nx.max(2) - 1;
+    let cy = ny.max(2) - 1;
+    let cz = nz.max(2) - 1;
+    let cell_side: Vec<i8> = (0..cx * cy * cz)
+        .into_par_iter()
+        .map(|c| {
+            let (i, j, k) = (c % cx, (c / cx) % cy, c / (cx * cy));
+            let (mut above, mut below) = (false, false);
+            let span = |i: usize, n: usize| i..=(i + 1).min(n - 1);
+            for z in span(k, nz) {
+                for y in span(j, ny) {
+                    for x in span(i, nx) {
+                        let v = field.at(x, y, z);
+                        above |= v > iso;
+                        below |= v <= iso;
+                    }
+                }
+            }
+            if above && below { 0 } else if above { 1 } else { -1 }
+        })
+        .collect();
+    let inside_value = (iso + 1.0) as f32;
+    let outside_value = (iso - 1.0) as f32;
+    let values: Vec<Vec<f32>> = leaves
+        .par_iter()
+        .enumerate()
+        .map(|(l, _)| {
+            (0..LEAF_VOXELS)
+                .map(|n| {
+                    let u = inverse * (voxel_of(l, n).as_dvec3() * h - t);
+                    let c = |v: f64, n: usize| (v.max(0.0) as usize).min(n - 1);
+                    match cell_side[c(u.x, cx) + cx * (c(u.y, cy) + cy * c(u.z, cz))] {
+                        1 => inside_value,
+                        -1 => outside_value,
+                        _ => field.sample(u).0 as f32,
+                    }
+                })
+                .collect()
+        })
+        .collect();
+    let inside = |l: usize, n: usize| f64::from(values[l][n]) > iso;
+
+    // Seeds: voxels with a face neighbour on the other side, projected onto the surface (Newton
+    // steps along the gradient; the crossing on the edge where they do not converge).
+    let project = |p: DVec3| -> Option<DVec3> {
+        let mut q = p;
+        for _ in 0..NEWTON_STEPS {
+            let (f, g) = field.sample(inverse * (q - t));
+            let r = f - iso;
+            if r.abs() < CONVERGED {
+                return Some(q);
+            }
+            let gw = gradient_to_world * g;
+            let g2 = gw.length_squared();
+            if g2 < 1e-12 {
+                return None;
+            }
+            let mut s = -r * gw / g2;
+            let len = s.length();
+            if len > max_step {
+                s *= max_step / len;
+            }
+            q += s;
+            if q.distance(p) > 2.0 * h + max_step {
+                return None;
+            }
+        }
+        None
+    };
+    const NONE: u32 = u32::MAX;
+    let seeds: Vec<Vec<(usize, DVec3)>> = (0..leaves.len())
+        .into_par_iter()
+        .map(|l| {
+            let mut out = Vec::new();
+            for n in 0..LEAF_VOXELS {
+                let side = inside(l, n);
+                let mut edge = None;
+                'axes: for axis in 0..3 {
+                    for dir in [-1, 1] {
+                        if let Some((m, k)) = step(l, n, axis, dir) {
+                            if inside(m, k) != side {
+                                edge = Some((m, k));
+                                break 'axes;
+                            }
+                        }
+                    }
+                }
+                let Some((m, k)) = edge else { continue };
+                let p = voxel_of(l, n).as_dvec3() * h;
+                let foot = project(p).unwrap_or_else(|| {
+                    let (a, b) = (f64::from(values[l][n]), f64::from(values[m][k]));
+                    let s = ((iso - a) / (b - a)).clamp(0.0, 1.0);
+                    p + (voxel_of(m, k).as_dvec3() * h - p) * s
+                });
+                out.push((n, foot));
+            }
+            out
+        })
+        .collect();
+    let mut feet: Vec<DVec3> = Vec::new();
+    let mut normals: Vec<DVec3> = Vec::new();
+    let mut nearest: Vec<Vec<u32>> = vec![vec![NONE; LEAF_VOXELS]; leaves.len()];
+    for (l, list) in seeds.into_iter().enumerate() {
+        for (n, foot) in list {
+            nearest[l][n] = feet.len() as u32;
+            feet.push(foot);
+            normals.push((gradient_to_world * field.sample(inverse * (foot - t)).1).normalize_or_zero());
+        }
+    }
+
+    // Each voxel takes the nearest of its face neighbours' surface points, sweep after sweep,
+    // until the band is covered (one voxel per sweep).
+    let sweeps = half_width.ceil() as usize + 1;
+    let mut changed: Vec<bool> = nearest.iter().map(|v| v.iter().any(|&id| id != NONE)).collect();
+    for _ in 0..sweeps {
+        let next: Vec<Option<Vec<u32>>> = (0..leaves.len())
+            .into_par_iter()
+            .map(|l| {
+                if !changed[l] && around[l].iter().all(|&m| m == usize::MAX || !changed[m]) {
+                    return None;
+                }
+                let mut own = nearest[l].clone();
+                let mut any = false;
+                for n in 0..LEAF_VOXELS {
+                    let p = voxel_of(l, n).as_dvec3() * h;
+                    let mut best = if own[n] == NONE { f64::INFINITY } else { feet[own[n] as usize].distance_squared(p) };
+                    for axis in 0..3 {
+                        for dir in [-1, 1] {
+                            if let Some((m, k)) = step(l, n, axis, dir) {
+                                let id = nearest[m][k];
+                                if id != NONE && id != own[n] {
+                                    let d = feet[id as usize].distance_squared(p);
+                                    if d < best {
+                                        best = d;
+                                        own[n] = id;
+                                        any = true;
+                                    }
+                                }
+                            }
+                        }
+                    }
+                }
+                any.then_some(own)
+            })
+            .collect();
+        changed = next.iter().map(Option::is_some).collect();
+        for (l, v) in next.into_iter().enumerate() {
+            if let Some(v) = v {
+                nearest[l] = v;
+            }
+        }
+    }
+    let leaves: Vec<(IVec3, Vec<f32>)> = (0..leaves.len())
+        .into_par_iter()
+        .map(|l| {
+            let out = (0..LEAF_VOXELS)
+                .map(|n| {
+                    let sign = if inside(l, n) { -1.0 } else { 1.0 };
+                    let id = nearest[l][n];
+                    let d = if id == NONE {
+                        band
+                    } else {
+                        // The foot is a surface point near the closest one, not always it: the
+                        // distance to its tangent plane is off only by the surface's curvature
+                        // times the two's separation squared (nearly along the normal).
+                        let v = voxel_of(l, n).as_dvec3() * h - feet[id as usize];
+                        let along = v.dot(normals[id as usize]);
+                        if along * along >= 0.8 * v.length_squared() { along.abs() } else { v.length() }.min(band)
+                    };
+                    (sign * d) as f32
+                })
+                .collect();
+            (leaves[l], out)
+        })
+        .collect();
+    Ok(LevelSet::from_leaves(voxel_size, half_width, &leaves)?)
+}
