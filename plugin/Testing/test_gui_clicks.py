@@ -2,36 +2,24 @@
 panel, the Tissues input selector, Apply, closing a view, File > Save State), compares
 its view with a baseline picture, then pvbatch checks the saved state: the pipeline is wired as
 clicked and the clicked preparation removes what the same pipeline made in Python removes."""
-import argparse
 import os
-import re
 import shutil
 import subprocess
 import sys
 
-parser = argparse.ArgumentParser()
-parser.add_argument("--paraview", required=True)
-parser.add_argument("--pvbatch", required=True)
-parser.add_argument("--plugin", required=True)
-parser.add_argument("--dentsim", required=True)
-parser.add_argument("--temp", required=True)
-parser.add_argument("--baselines", required=True)
-parser.add_argument("--update-baseline", action="store_true")
-args = parser.parse_args()
+from test_inputs import gui_driver_args, occlusal_groove, phantom_scan
+
+args = gui_driver_args("--pvbatch")
 
 here = os.path.dirname(os.path.abspath(__file__))
 temp = os.path.join(args.temp, "gui_clicks")
 shutil.rmtree(temp, ignore_errors=True)
 os.makedirs(temp)
-made = subprocess.run([args.dentsim, "phantom", "--format", "mha", "--out", os.path.join(temp, "clicks_scan.mha")],
-                      check=True, capture_output=True, text=True).stdout
-seed = re.search(r"near ([-\d.]+),([-\d.]+),([-\d.]+) mm", made).groups()
-with open(os.path.join(temp, "clicks_groove.csv"), "w") as f:  # 2 mm into tooth 36's occlusal table
-    f.write("t,x,y,z,qw,qx,qy,qz,cut\n0,21,18,-26.6,1,0,0,0,0\n")
-    f.writelines("%.2f,%.2f,18,-29.6,1,0,0,0,1\n" % (0.01 * (i + 1), 21 + 0.1 * i) for i in range(61))
+seed = phantom_scan(args.dentsim, os.path.join(temp, "clicks_scan.mha"))
+occlusal_groove(os.path.join(temp, "clicks_groove.csv"))
 events = open(os.path.join(here, "gui_clicks.xml")).read().replace("@TEMP@", temp)
 for axis, value in zip("XYZ", seed):
-    events = events.replace("@SEED_%s@" % axis, value)
+    events = events.replace("@SEED_%s@" % axis, "%g" % value)
 script = os.path.join(temp, "gui_clicks.xml")
 with open(script, "w") as f:
     f.write(events)

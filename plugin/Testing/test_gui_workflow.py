@@ -1,29 +1,20 @@
 """GUI test under Xvfb: the ParaView GUI started with the plugin (as a user with it auto-loaded),
 test_gui_workflow_script.py run in it as a startup script (which ends the GUI), the picture
 compared with a baseline."""
-import argparse
 import os
 import shutil
 import subprocess
 import sys
 
-parser = argparse.ArgumentParser()
-parser.add_argument("--paraview", required=True)
-parser.add_argument("--plugin", required=True)
-parser.add_argument("--dentsim", required=True)
-parser.add_argument("--temp", required=True)
-parser.add_argument("--baselines", required=True)
-parser.add_argument("--update-baseline", action="store_true")
-args = parser.parse_args()
+from test_inputs import gui_driver_args, occlusal_groove, phantom_scan
+
+args = gui_driver_args()
 
 temp = os.path.join(args.temp, "gui")
 shutil.rmtree(temp, ignore_errors=True)
 os.makedirs(temp)
-subprocess.run([args.dentsim, "phantom", "--format", "mha", "--out", os.path.join(temp, "gui_scan.mha")],
-               check=True, capture_output=True)
-with open(os.path.join(temp, "gui_groove.csv"), "w") as f:  # 2 mm into tooth 36's occlusal table
-    f.write("t,x,y,z,qw,qx,qy,qz,cut\n0,21,18,-26.6,1,0,0,0,0\n")
-    f.writelines("%.2f,%.2f,18,-29.6,1,0,0,0,1\n" % (0.01 * (i + 1), 21 + 0.1 * i) for i in range(61))
+phantom_scan(args.dentsim, os.path.join(temp, "gui_scan.mha"))
+occlusal_groove(os.path.join(temp, "gui_groove.csv"))
 env = dict(os.environ, DENTSIM_GUI_TEMP=temp, HOME=temp)  # a fresh user: no settings of ours
 env.pop("PV_PLUGIN_PATH", None)
 script = os.path.join(os.path.dirname(os.path.abspath(__file__)), "test_gui_workflow_script.py")

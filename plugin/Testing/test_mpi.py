@@ -5,11 +5,11 @@ data must equal one rank's: same blocks, same point counts, nothing twice."""
 import argparse
 import json
 import os
-import re
-import subprocess
 import sys
 
 from paraview import servermanager, simple
+
+from test_inputs import phantom_scan
 
 parser = argparse.ArgumentParser()
 parser.add_argument("--plugin", required=True)
@@ -48,9 +48,7 @@ result["phantom_stroke"] = summary(DentalPhantomStroke(VoxelSizemm=0.1))
 
 csv = os.path.join(args.cohort, "groove_md.csv")
 scan_path = os.path.join(args.temp, "mpi_scan.mha")
-made = subprocess.run([args.dentsim, "phantom", "--format", "mha", "--out", scan_path],
-                      check=True, capture_output=True, text=True).stdout
-seed = [float(v) for v in re.search(r"near ([-\d.]+),([-\d.]+),([-\d.]+) mm", made).groups()]
+seed = phantom_scan(args.dentsim, scan_path)
 scan = simple.OpenDataFile(scan_path)
 tooth = DentalTissuesFromScan(Input=scan, VoxelSizemm=0.1, UseSeedPoint=1, SeedPointmm=seed)
 result["tissues_from_scan"] = summary(tooth)

@@ -3,12 +3,11 @@ nothing by surprise; ToolPath=None (what a Python trace writes) clears; tissues 
 source (a phantom stroke, or a scan through Tissues From Scan) instead of a file; a failed run
 leaves no stale output and its error names the property."""
 import os
-import re
-import subprocess
 
 from paraview import servermanager, simple
 from vtkmodules.vtkCommonCore import vtkOutputWindow, vtkStringOutputWindow
 
+from test_inputs import phantom_scan
 from dentsim_testing import check, parse_args
 
 args = parse_args()
@@ -86,9 +85,7 @@ for name in ("enamel", "dentin"):
 
 # 4. Scan → tissues → preparation without leaving ParaView.
 scan_path = os.path.join(args.temp, "inputs_scan.mha")
-made = subprocess.run([args.dentsim, "phantom", "--format", "mha", "--out", scan_path],
-                      check=True, capture_output=True, text=True).stdout
-seed = [float(v) for v in re.search(r"near ([-\d.]+),([-\d.]+),([-\d.]+) mm", made).groups()]
+seed = phantom_scan(args.dentsim, scan_path)
 scan = simple.OpenDataFile(scan_path)
 tooth = DentalTissuesFromScan(Input=scan, VoxelSizemm=0.1, UseSeedPoint=1, SeedPointmm=seed)
 tooth.UpdatePipeline()

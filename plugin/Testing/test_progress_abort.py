@@ -3,21 +3,18 @@ report progress between 0 and 1 while they work (ParaView's progress bar), and a
 (during the cut, during segmentation, during grading) stops the work there with an error saying
 so and empty outputs; the next run works again."""
 import os
-import re
-import subprocess
 
 from paraview import servermanager, simple
 from vtkmodules.vtkCommonCore import vtkCommand, vtkOutputWindow, vtkStringOutputWindow
 
+from test_inputs import phantom_scan
 from dentsim_testing import check, parse_args
 
 args = parse_args()
 simple.LoadPlugin(args.plugin, ns=globals())
 
 scan_path = os.path.join(args.temp, "progress_scan.mha")
-made = subprocess.run([args.dentsim, "phantom", "--format", "mha", "--out", scan_path],
-                      check=True, capture_output=True, text=True).stdout
-seed = [float(v) for v in re.search(r"near ([-\d.]+),([-\d.]+),([-\d.]+) mm", made).groups()]
+seed = phantom_scan(args.dentsim, scan_path)
 csv = os.path.join(args.temp, "progress_box.csv")
 with open(csv, "w") as f:  # a class I box raster 2 mm into tooth 36's occlusal table
     f.write("t,x,y,z,qw,qx,qy,qz,cut\n0,22,16.5,-26.6,1,0,0,0,0\n")

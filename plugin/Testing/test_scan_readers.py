@@ -5,7 +5,6 @@ nibabel, both from the phantom; the MetaImage by dentsim. Also: the Grey Values 
 and All Teeth (one block per tooth)."""
 import json
 import os
-import re
 import subprocess
 
 import nibabel
@@ -15,6 +14,7 @@ from pydicom.dataset import FileDataset, FileMetaDataset
 from pydicom.uid import ExplicitVRLittleEndian, generate_uid
 from paraview import servermanager, simple
 
+from test_inputs import phantom_scan
 from dentsim_testing import check, parse_args
 
 args = parse_args()
@@ -22,9 +22,7 @@ simple.LoadPlugin(args.plugin, ns=globals())
 temp = os.path.join(args.temp, "scan_readers")
 os.makedirs(temp, exist_ok=True)
 
-made = subprocess.run([args.dentsim, "phantom", "--format", "nifti", "--out", os.path.join(temp, "phantom.nii.gz")],
-                      check=True, capture_output=True, text=True).stdout
-seed = [float(v) for v in re.search(r"near ([-\d.]+),([-\d.]+),([-\d.]+) mm", made).groups()]
+seed = phantom_scan(args.dentsim, os.path.join(temp, "phantom.nii.gz"), fmt="nifti")
 phantom = nibabel.load(os.path.join(temp, "phantom.nii.gz"))
 grey = numpy.asarray(phantom.dataobj, dtype=numpy.float64)
 affine = phantom.affine  # voxel -> RAS mm
@@ -87,7 +85,7 @@ far = lps[:, 3] + lps[:, 0] * (stored.shape[0] - 1) + lps[:, 1] * (stored.shape[
 write_series(flipped, turned, numpy.column_stack([-lps[:, 0], -lps[:, 1], lps[:, 2], far]))
 
 mha = os.path.join(temp, "scan.mha")
-subprocess.run([args.dentsim, "phantom", "--format", "mha", "--out", mha], check=True, capture_output=True)
+phantom_scan(args.dentsim, mha)
 
 
 def cli(path, name):

@@ -1,19 +1,16 @@
 """A CBCT scan opened with ParaView's own MetaImage reader, turned into tooth 36's tissues."""
 import os
-import re
-import subprocess
 
 from paraview import servermanager, simple
 
+from test_inputs import phantom_scan
 from dentsim_testing import check, compare_with_baseline, show_blocks, parse_args, tissue_view
 
 args = parse_args()
 simple.LoadPlugin(args.plugin, ns=globals())
 
 scan_path = os.path.join(args.temp, "phantom_scan.mha")
-made = subprocess.run([args.dentsim, "phantom", "--format", "mha", "--out", scan_path],
-                      check=True, capture_output=True, text=True).stdout
-seed = [float(v) for v in re.search(r"near ([-\d.]+),([-\d.]+),([-\d.]+) mm", made).groups()]
+seed = phantom_scan(args.dentsim, scan_path)
 
 scan = simple.OpenDataFile(scan_path)
 check(scan.GetXMLName() == "MetaImageReader", "ParaView's MetaImage reader: %s" % scan.GetXMLName())
