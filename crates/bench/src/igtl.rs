@@ -77,6 +77,7 @@ pub fn igtl_round_trip(tooth: &BenchTooth, poses: usize) -> Result<Vec<BenchRow>
     let peer = build_reference_peer(&dir)?;
     let (a, b) = (tooth.occlusal + DVec3::new(0.0, 0.0, 0.6), tooth.occlusal + DVec3::new(0.3, 0.0, -1.0));
 
+    let raise_priority = std::env::var("DENTSIM_NO_FIFO").is_err();
     // Ours: the session as `dentsim session --device igtl://...?pedal=1 --realtime` runs it.
     let port = free_port()?;
     let server = spawn_server(&peer, port, poses, a, b)?;
@@ -88,7 +89,7 @@ pub fn igtl_round_trip(tooth: &BenchTooth, poses: usize) -> Result<Vec<BenchRow>
         realtime: true,
         // The peer ends the session; this only bounds a broken run.
         max_duration_s: poses as f64 * 1e-3 + 60.0,
-        raise_priority: std::env::var("DENTSIM_NO_FIFO").is_err(),
+        raise_priority,
         mesher_hz: Some(DEFAULT_MESHER_HZ),
         log_path: None,
         ..Default::default()
@@ -116,5 +117,6 @@ pub fn igtl_round_trip(tooth: &BenchTooth, poses: usize) -> Result<Vec<BenchRow>
     let peer = format!("reference C++ OpenIGTLink at both ends (igtl_peer echo; its p99 {:.1} us); goal: p99 <= 500 us", theirs.quantile(0.99));
     let mut rt = BenchRow::new("igtl_round_trip", &ours, &peer, &theirs);
     rt.ours_p999_us = Some(ours.quantile(0.999));
-    Ok(vec![rt, BenchRow::without_peer("loop_period_igtl", &Timings(outcome.periods_us), "goal: p99.9 <= 1100 us, OpenIGTLink I/O at 1 kHz and the mesher running")])
+    let periods = crate::deadline_row("loop_period_igtl", &Timings(outcome.periods_us), raise_priority, "goal: p99.9 <= 1100 us, OpenIGTLink I/O at 1 kHz and the mesher running")?;
+    Ok(vec![rt, periods])
 }

@@ -147,3 +147,19 @@ fn a_mesher_short_of_queue_room_cuts_the_overflow_again() {
         assert!(triangle_set(shown) == triangle_set(&full.mesh(t)), "tissue {t}: the mesher's last mesh is not the final geometry");
     }
 }
+
+#[test]
+fn the_empty_loop_gives_one_period_per_tick_and_refuses_a_bad_period() {
+    use dentsim_sim::session::threads::idle_loop_periods_us;
+    let periods = idle_loop_periods_us(50, 1e-3, false).unwrap();
+    assert_eq!(periods.len(), 50);
+    // Ticks wait for absolute deadlines, so no two starts can be closer than zero apart and
+    // together they span at least the 49 deadlines after the first.
+    assert!(periods.iter().all(|p| *p >= 0.0));
+    let span: f64 = periods.iter().skip(1).sum();
+    assert!(span >= 48.0 * 1e3 - 1e-6, "{span}");
+    for bad in [0.0, -1e-3, f64::NAN] {
+        let e = idle_loop_periods_us(5, bad, false).unwrap_err().to_string();
+        assert!(e.contains("period_s"), "{e}");
+    }
+}
