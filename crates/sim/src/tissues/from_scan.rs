@@ -169,15 +169,14 @@ impl TissuesFromScan {
             return Err(invalid(format!("scan {}", scan.source.path), "no tooth (hard tissue with enamel) found"));
         }
         let count = teeth.len() as f64;
-        let mut out = Vec::with_capacity(teeth.len());
-        for (i, tooth) in teeth.into_iter().enumerate() {
+        let one_tooth = |i: usize, tooth: FoundTooth, go_on: &mut dyn FnMut(&str, f64) -> bool| -> Result<(TissueModel, ScanReport)> {
             let one = TissuesFromScan { seed_mm: Some(tooth.seed), bounds_mm: Some((tooth.min, tooth.max)), ..self.clone() };
             let seconds = Timings { calibrate: calibrate_s / count, ..Timings::default() };
             // Each tooth is segmented in its box grown by ALL_TEETH_MARGIN_MM (room for the
             // surface refinement and the lesion search), not in the whole scan.
             let region = index_box_around(scan, tooth.min, tooth.max, ALL_TEETH_MARGIN_MM);
             let part = crop(scan, &region).map_err(cbct)?;
-            let (mut model, mut report) = one.run_calibrated(&part, table, calibration.clone(), seconds, &mut |step, f| go_on(&format!("tooth {}: {step}", i + 1), (i as f64 + f) / count))?;
+            let (mut model, mut report) = one.run_calibrated(&part, table, calibration.clone(), seconds, go_on)?;
             report.scan_dims = scan.dims;
             for c in 0..3 {
                 report.crop_min[c] += region.min[c];
@@ -187,9 +186,10 @@ impl TissuesFromScan {
             report.fdi = 0;
             report.fdi_note = ALL_TEETH_NOTE.into();
             report.found = Some((i + 1, tooth));
-            out.push((model, report));
-        }
-        Ok(out)
+            Ok((model, report))
+        };
+        let teeth_at_once = std::thread::available_parallelism().map_or(1, |n| n.get()).clamp(1, MAX_TEETH_AT_ONCE);
+        side_by_side(teeth, teeth_at_once, one_tooth, &mut |i, step, f| go_on(&format!("tooth {}: {step}", i + 1), (i as f64 + f) / count))
     }
 
     fn run_calibrated(&self, scan: &Volume, table: &TissueTable, calibration: Calibration, mut seconds: Timings, go_on: &mut dyn FnMut(&str, f64) -> bool) -> Result<(TissueModel, ScanReport)> {
@@ -595,11 +595,170 @@ fn centre_of(scan: &Volume) -> [f64; 3] {
 }
 
 
+/// Most teeth segmented at once by [`TissuesFromScan::run_all`]. Each tooth is parallel inside
+/// but has serial stretches (the labels' flood fills, the level sets' sweeps) that a second tooth
+/// fills; each tooth in flight holds its own grids (~0.6 GB at 0.05 mm), so no more than this.
+pub const MAX_TEETH_AT_ONCE: usize = 4;
+
+/// Runs `work` on every item, up to `at_once` side by side, and returns the results in the
+/// items' order. Progress reaches `go_on` on the calling thread only, in the items' order, as if
+/// they had run one after another: item i's steps are passed on once items before it are done.
+/// When `go_on` answers false, or an item fails, the items still running stop at their next
+/// step; the answer is the stop, else the first failure in the items' order.
+fn side_by_side<T: Send, R: Send>(
+    items: Vec<T>,
+    at_once: usize,
+    work: impl Fn(usize, T, &mut dyn FnMut(&str, f64) -> bool) -> Result<R> + Sync,
+    go_on: &mut dyn FnMut(usize, &str, f64) -> bool,
+) -> Result<Vec<R>> {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::{Condvar, Mutex};
+
+    #[derive(Default)]
+    struct Track {
+        steps: Vec<(String, f64)>,
+        finished: bool,
+    }
+    let n = items.len();
+    let queue = Mutex::new(items.into_iter().enumerate().collect::<std::collections::VecDeque<_>>());
+    let tracks: Mutex<Vec<Track>> = Mutex::new((0..n).map(|_| Track::default()).collect());
+    let results: Mutex<Vec<Option<Result<R>>>> = Mutex::new((0..n).map(|_| None).collect());
+    let (news, halt) = (Condvar::new(), AtomicBool::new(false));
+    let lock = || tracks.lock().unwrap_or_else(|p| p.into_inner());
+    let mut stopped_here = false;
+    std::thread::scope(|scope| {
+        for _ in 0..at_once.clamp(1, n.max(1)) {
+            scope.spawn(|| loop {
+                let next = queue.lock().unwrap_or_else(|p| p.into_inner()).pop_front();
+                let Some((i, item)) = next else { break };
+                let result = if halt.load(Ordering::Acquire) {
+                    Err(stopped("segmentation"))
+                } else {
+                    work(i, item, &mut |step, f| {
+                        lock()[i].steps.push((step.to_owned(), f));
+                        news.notify_all();
+                        !halt.load(Ordering::Acquire)
+                    })
+                };
+                if result.is_err() {
+                    halt.store(true, Ordering::Release);
+                }
+                results.lock().unwrap_or_else(|p| p.into_inner())[i] = Some(result);
+                lock()[i].finished = true;
+                news.notify_all();
+            });
+        }
+        // Pass the steps on in the items' order until every item is done or one goes wrong.
+        let (mut item, mut passed) = (0, 0);
+        let mut guard = lock();
+        while item < n {
+            if let Some((step, f)) = guard[item].steps.get(passed).cloned() {
+                passed += 1;
+                drop(guard);
+                if !go_on(item, &step, f) {
+                    stopped_here = true;
+                    halt.store(true, Ordering::Release);
+                    break;
+                }
+                guard = lock();
+            } else if guard[item].finished {
+                if halt.load(Ordering::Acquire) {
+                    break;
+                }
+                (item, passed) = (item + 1, 0);
+            } else {
+                guard = news.wait(guard).unwrap_or_else(|p| p.into_inner());
+            }
+        }
+    });
+    if stopped_here {
+        return Err(stopped("segmentation"));
+    }
+    // A failure's own error comes before the stops it caused in the items after it.
+    let mut out = Vec::with_capacity(n);
+    let mut stop = None;
+    for result in results.into_inner().unwrap_or_else(|p| p.into_inner()) {
+        match result.unwrap_or_else(|| Err(stopped("segmentation"))) {
+            Ok(r) => out.push(r),
+            Err(e) if e.to_string().contains(crate::error::STOPPED) => {
+                stop.get_or_insert(e);
+            }
+            Err(e) => return Err(e),
+        }
+    }
+    match stop {
+        Some(e) => Err(e),
+        None => Ok(out),
+    }
+}
+
 /// Books `name` at `fraction` with `go_on`; an error when it says stop.
 fn step(go_on: &mut dyn FnMut(&str, f64) -> bool, name: &str, fraction: f64) -> Result<()> {
     if go_on(name, fraction) {
         Ok(())
     } else {
         Err(stopped("segmentation"))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::time::Duration;
+
+    /// Work whose later items finish first: item i sleeps (n − i) ms per step.
+    fn steps_then_square(n: usize) -> impl Fn(usize, usize, &mut dyn FnMut(&str, f64) -> bool) -> Result<usize> + Sync {
+        move |i, item, go_on| {
+            for s in 0..3 {
+                std::thread::sleep(Duration::from_millis((n - i) as u64));
+                if !go_on(&format!("step {s}"), s as f64 / 3.0) {
+                    return Err(stopped("segmentation"));
+                }
+            }
+            Ok(item * item)
+        }
+    }
+
+    #[test]
+    fn side_by_side_keeps_the_items_order_in_results_and_progress() {
+        for at_once in [1, 2, 4, 9] {
+            let mut seen = Vec::new();
+            let out = side_by_side((0..6).collect(), at_once, steps_then_square(6), &mut |i, step, _| {
+                seen.push(format!("{i} {step}"));
+                true
+            })
+            .unwrap();
+            assert_eq!(out, [0, 1, 4, 9, 16, 25]);
+            let expected: Vec<String> = (0..6).flat_map(|i| (0..3).map(move |s| format!("{i} step {s}"))).collect();
+            assert_eq!(seen, expected, "{at_once} at once");
+        }
+    }
+
+    #[test]
+    fn side_by_side_stops_when_told_and_passes_nothing_after() {
+        let mut seen = Vec::new();
+        let err = side_by_side((0..6).collect(), 2, steps_then_square(6), &mut |i, step, _| {
+            seen.push(format!("{i} {step}"));
+            i < 2
+        })
+        .unwrap_err();
+        assert!(err.to_string().contains(crate::error::STOPPED), "{err}");
+        assert_eq!(seen.last().map(String::as_str), Some("2 step 0"), "{seen:?}");
+        assert_eq!(seen.len(), 7);
+    }
+
+    #[test]
+    fn side_by_side_answers_the_first_failure_not_the_stops_it_caused() {
+        for at_once in [1, 2, 3] {
+            let work = |i: usize, _item: usize, go_on: &mut dyn FnMut(&str, f64) -> bool| -> Result<usize> {
+                if i == 3 || i == 4 {
+                    return Err(invalid(format!("item {i}"), "broken"));
+                }
+                std::thread::sleep(Duration::from_millis(5));
+                if go_on("working", 0.5) { Ok(i) } else { Err(stopped("segmentation")) }
+            };
+            let err = side_by_side((0..6).collect(), at_once, work, &mut |_, _, _| true).unwrap_err();
+            assert!(err.to_string().contains("item 3") && err.to_string().contains("broken"), "{at_once} at once: {err}");
+        }
     }
 }
