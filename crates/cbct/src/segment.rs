@@ -467,6 +467,9 @@ fn median(v: &mut [f32]) -> f32 {
     *v.select_nth_unstable_by(m, |a, b| a.total_cmp(b)).1
 }
 
+/// Least depth (mm) of a body of bone grey for it to be bone, not a blurred edge.
+const BONE_DEPTH_MM: f64 = 0.4;
+
 fn snap(v: f64, cal: &Calibration, among: &[Label]) -> Label {
     *among.iter().min_by(|a, b| (cal.peak(**a) - v).abs().total_cmp(&(cal.peak(**b) - v).abs())).unwrap_or(&among[0])
 }
@@ -851,7 +854,12 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             Cavity { class, threshold, grey: s.grey }
         })
         .collect();
-    let filled: Vec<bool> = (0..bn).map(|l| btooth[l] || bcavity[l]).collect();
+    // The closing's gaps next to the pulp are its wall, darkened by its blur (around a root
+    // canal 1–2 voxels wide): the tooth's, not its outside. (A lesion's border has its own
+    // refinement.)
+    let cavity_of = |class: Label| morph(&bx.g, &(0..bn).map(|l| bcavity[l] && cav_class[bid[l] as usize].class == class).collect::<Vec<bool>>(), true);
+    let (by_pulp, by_lesion) = (cavity_of(Label::Pulp), cavity_of(Label::Caries));
+    let filled: Vec<bool> = (0..bn).map(|l| btooth[l] || bcavity[l] || (closed[l] && by_pulp[l] && !by_lesion[l] && !bmetal[l])).collect();
 
     // Outer surface refinement in a 2-voxel ring on both sides of the filled tooth's surface
     // (inside the box: it reaches LESION_MOUTH_MM + 2 voxels beyond the tooth).
@@ -863,6 +871,15 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     let outside_classes = [Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical];
     let hard = [Label::Dentin, Label::Enamel];
     let d = bx.g.d;
+    // Bone is a body: grey of bone in a shell thinner than BONE_DEPTH_MM around the tooth is
+    // the blur's mix of the tooth and a darker outside (water, air), no bone.
+    let bone_near = {
+        let not_bone: Vec<bool> = (0..bn).map(|l| filled[l] || !matches!(Label::from_u8(out.labels[bx.global(l)]), Some(Label::BoneCancellous | Label::BoneCortical))).collect();
+        let depth = distance_mm(bx.g.d, vol.spacing, &not_bone);
+        let bulk: Vec<bool> = depth.iter().map(|&d| f64::from(d) >= BONE_DEPTH_MM).collect();
+        let reach = BONE_DEPTH_MM + 2.0 * vol.spacing.iter().cloned().fold(0.0, f64::max);
+        within(&bx.g, &bulk, reach, vol.spacing)
+    };
     let decisions: Vec<(usize, Option<Label>)> = ring
         .par_iter()
         .map(|&l| {
@@ -877,10 +894,25 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             }
             let mu_in = if ins.is_empty() { Label::Dentin } else { snap(median(&mut ins) as f64, cal, &hard) };
             let mu_out = if outs.is_empty() { Label::SoftTissue } else { snap(median(&mut outs) as f64, cal, &outside_classes) };
-            // Roots sit in bone behind a periodontal ligament (soft tissue, ~0.2 mm): the
-            // surface there is the dentin/ligament edge, so the ligament is the outside partner.
-            let mu_out = if matches!(mu_out, Label::BoneCancellous | Label::BoneCortical) { Label::SoftTissue } else { mu_out };
-            let inside = bvals[l] as f64 > cal.mid(mu_in, mu_out);
+            // Roots sit in bone behind a periodontal ligament (soft tissue, ~0.2 mm), mostly
+            // thinner than the scan resolves: the root's partner is what lies next to it, the
+            // ligament darkening the bone's first voxels by its share, so the partner's grey is
+            // the darker end of the outside's (its lowest fifth), between soft tissue's (a
+            // ligament the scan shows) and the bone's (a root fused to it, ankylosis). Near the
+            // crown, or with no body of bone near, a bone-grey outside is partial volume (air in
+            // a blurred fissure, water against the root): soft.
+            let partner = if !matches!(mu_out, Label::BoneCancellous | Label::BoneCortical) {
+                cal.peak(mu_out)
+            } else if near_enamel[l] || !bone_near[l] {
+                cal.peak(Label::SoftTissue)
+            } else {
+                let k = outs.len() / 5;
+                let (_, low, _) = outs.select_nth_unstable_by(k, f32::total_cmp);
+                let (bone, soft) = (cal.peak(mu_out), cal.peak(Label::SoftTissue));
+                let low = f64::from(*low);
+                if low < bone - 0.25 * (bone - soft) { soft } else { low.clamp(soft.min(bone), bone) }
+            };
+            let inside = f64::from(bvals[l]) > 0.5 * (cal.peak(mu_in) + partner);
             (l, inside.then_some(mu_in))
         })
         .collect();

@@ -5,7 +5,8 @@ pydicom (a DICOM series). Nothing here comes from dentsim's phantom.
 
     python3 foreign_tooth.py OUT CASE
 
-CASE: jaw (in bone and soft tissue, tilted 15 degrees, NIfTI), air (an extracted tooth on a wax
+CASE: jaw (in bone and soft tissue, tilted 15 degrees, NIfTI; its root fused to the bone), socket
+(the same with a 0.3 mm ligament between the root and its socket), air (an extracted tooth on a wax
 block, in air, DICOM series, grey values signed and offset), or water (in water, anisotropic
 voxels, NIfTI). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
@@ -18,11 +19,12 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13}[CASE])
+rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13, "socket": 14}[CASE])
+JAW = CASE in ("jaw", "socket")
 
 # Grid in the tooth's own frame (mm): z along the tooth, occlusal up; fine grid for the truth and
 # the partial volume, averaged into the scan's voxels.
-spacing = {"jaw": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3)}[CASE]
+spacing = {"jaw": (0.2, 0.2, 0.2), "socket": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3)}[CASE]
 FINE = 3  # sub-samples per voxel and axis
 extent = ((-7.0, 7.0), (-7.0, 7.0), (-16.0, 10.0))
 dims = [int(round((hi - lo) / s)) for (lo, hi), s in zip(extent, spacing)]
@@ -55,11 +57,16 @@ dentin = tooth & ~enamel & ~pulp
 # Grey values in the scanner's units (not HU): each case its own scale and offset.
 grey = {
     "jaw": dict(air=-1000, soft=40, bone=1100, dentin=1900, enamel=3000, pulp=40, scale=1.0, offset=0),
+    "socket": dict(air=-1000, soft=40, bone=1100, dentin=1900, enamel=3000, pulp=40, scale=1.0, offset=0),
     "air": dict(air=-1000, wax=-80, dentin=1750, enamel=2800, pulp=-1000, scale=0.6, offset=-300),
     "water": dict(air=-1000, water=0, dentin=1800, enamel=2900, pulp=0, scale=2.0, offset=5000),
 }[CASE]
-if CASE == "jaw":
+if JAW:
     bone = (z <= -1.5) & (np.abs(x) <= 6.5) & (np.abs(y) <= 9.0)
+    if CASE == "socket":  # a 0.3 mm ligament between the root and its socket
+        pdl = 0.3
+        socket = ((x / (radius(3.8, 0.9) + pdl)) ** 2 + (y / (radius(3.3, 0.8) + pdl)) ** 2 <= 1.0) & (z >= -13.0 - pdl)
+        bone &= ~socket
     medium = np.where(bone, grey["bone"], np.where(z <= 3.0, grey["soft"], grey["air"]))
 elif CASE == "air":
     medium = np.where(z <= -9.0, grey["wax"], grey["air"]) + 0 * x * y  # root tip in a wax block
@@ -82,7 +89,7 @@ scan += rng.normal(0.0, 35.0, scan.shape).astype(np.float32)
 scan = scan * grey["scale"] + grey["offset"]
 
 # Placement in the patient (LPS mm): tilted for the jaw, about an arbitrary origin.
-tilt = math.radians(15.0 if CASE == "jaw" else 0.0)
+tilt = math.radians(15.0 if JAW else 0.0)
 rotation = np.array([[1.0, 0.0, 0.0], [0.0, math.cos(tilt), -math.sin(tilt)], [0.0, math.sin(tilt), math.cos(tilt)]])
 centre_of_first = np.array([lo + s / 2.0 for (lo, _), s in zip(extent, spacing)])
 shift = np.array([31.5, -12.25, 140.0])
@@ -126,7 +133,7 @@ else:
     affine[:3, :3] = np.diag([-1.0, -1.0, 1.0]) @ rotation @ np.diag(spacing)
     affine[:3, 3] = np.diag([-1.0, -1.0, 1.0]) @ origin
     path = os.path.join(OUT, "tooth.nii.gz")
-    image = nibabel.Nifti1Image(scan.astype(np.int16 if CASE == "jaw" else np.float32), affine)
+    image = nibabel.Nifti1Image(scan.astype(np.int16 if JAW else np.float32), affine)
     image.set_qform(affine, code=1)
     image.set_sform(affine, code=1)
     nibabel.save(image, path)
