@@ -1131,8 +1131,10 @@ pub fn family(full: bool) -> Vec<FamilyCase> {
             case("upper canine in air, coarse voxels", 23, Medium::Air, 0.4, &none),
             case("lower molar in the jaw, coarse voxels, HU offset", 36, Medium::Jaw, 0.4, &|s| {
                 s.roots = Some(2);
+                // Stored unsigned as scanners do, HU + 1024 (DICOM's rescale intercept −1024);
+                // −1024 clamped everything below +1024 HU (pulp, soft tissue, air) to 0.
                 s.scale = 1.0;
-                s.offset = -1024.0;
+                s.offset = 1024.0;
                 s.integer = Some((16, false));
             }),
             case("upper premolar in wax, anisotropic, tilted", 15, Medium::Wax, 0.2, &|s| {
