@@ -44,6 +44,41 @@ impl GridField<'_> {
         }
     }
 
+    /// Value alone at a continuous index under `kernel` (the spline's without its gradient).
+    fn value(&self, kernel: Kernel, u: DVec3) -> f64 {
+        if kernel == Kernel::Trilinear {
+            return self.trilinear(u).0;
+        }
+        let mut base = [0usize; 3];
+        let mut w = [[0f64; 4]; 3];
+        let mut interior = true;
+        for c in 0..3 {
+            let x = u[c].clamp(0.0, (self.dims[c] - 1) as f64);
+            let i = x.floor();
+            let t = x - i;
+            let s = 1.0 - t;
+            w[c] = [s * s * s / 6.0, (3.0 * t * t * t - 6.0 * t * t + 4.0) / 6.0, (-3.0 * t * t * t + 3.0 * t * t + 3.0 * t + 1.0) / 6.0, t * t * t / 6.0];
+            interior &= i >= 1.0 && (i as usize) + 2 < self.dims[c];
+            base[c] = (i as usize).saturating_sub(1);
+        }
+        if !interior {
+            return self.bspline(u).0;
+        }
+        let (sy, sz) = (self.dims[0], self.dims[0] * self.dims[1]);
+        let start = base[0] + sy * base[1] + sz * base[2];
+        let mut value = 0.0;
+        for (c, wz) in w[2].iter().enumerate() {
+            let mut plane = 0.0;
+            for (b, wy) in w[1].iter().enumerate() {
+                let row = &self.values[start + c * sz + b * sy..][..4];
+                let line: f64 = row.iter().zip(&w[0]).map(|(v, wx)| f64::from(*v) * wx).sum();
+                plane += wy * line;
+            }
+            value += wz * plane;
+        }
+        value
+    }
+
     /// Cubic B-spline value and gradient at a continuous index, the values being the spline's
     /// coefficients; outside the grid the border's values continue.
     fn bspline(&self, u: DVec3) -> (f64, DVec3) {
@@ -157,25 +192,49 @@ pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32
     let spacing = [a.x_axis.length(), a.y_axis.length(), a.z_axis.length()];
     let max_step = 0.5 * spacing.iter().cloned().fold(f64::INFINITY, f64::min);
 
+    // Every cell's side of the surface: 1 or −1 where the surface does not cross the cell (the
+    // field there lies between the values it is made of: the trilinear's corners, the spline's
+    // 4³ coefficients, the corners of the cell and its 26 neighbours), else 0.
+    let (cx, cy, cz) = (nx.max(2) - 1, ny.max(2) - 1, nz.max(2) - 1);
+    let cells = cx * cy * cz;
+    let mut cell_side: Vec<i8> = (0..cells)
+        .into_par_iter()
+        .map(|c| {
+            let (i, j, k) = (c % cx, (c / cx) % cy, c / (cx * cy));
+            let (mut above, mut below) = (false, false);
+            for z in k..=(k + 1).min(nz - 1) {
+                for y in j..=(j + 1).min(ny - 1) {
+                    for x in i..=(i + 1).min(nx - 1) {
+                        let v = field.at(x, y, z);
+                        above |= v > iso;
+                        below |= v <= iso;
+                    }
+                }
+            }
+            if above && below { 0 } else if above { 1 } else { -1 }
+        })
+        .collect();
+    for _ in 0..reach {
+        for (axis, stride) in [(0, 1), (1, cx), (2, cx * cy)] {
+            let len = [cx, cy, cz][axis];
+            let src = cell_side.clone();
+            cell_side.par_iter_mut().enumerate().for_each(|(c, side)| {
+                let at = (c / stride) % len;
+                let lo = if at > 0 { src[c - stride] } else { *side };
+                let hi = if at + 1 < len { src[c + stride] } else { *side };
+                if lo != *side || hi != *side {
+                    *side = 0;
+                }
+            });
+        }
+    }
+
     // Leaves within the band of a cell the iso-surface passes through.
-    let cells = (nx.max(2) - 1) * (ny.max(2) - 1) * (nz.max(2) - 1);
-    let (cx, cy) = (nx.max(2) - 1, ny.max(2) - 1);
     let mut leaves: Vec<IVec3> = (0..cells)
         .into_par_iter()
         .flat_map_iter(|c| {
             let (i, j, k) = (c % cx, (c / cx) % cy, c / (cx * cy));
-            let mut lo = f64::INFINITY;
-            let mut hi = f64::NEG_INFINITY;
-            for z in i_span(k, nz, reach) {
-                for y in i_span(j, ny, reach) {
-                    for x in i_span(i, nx, reach) {
-                        let v = field.at(x, y, z);
-                        lo = lo.min(v);
-                        hi = hi.max(v);
-                    }
-                }
-            }
-            let crosses = lo <= iso && hi > iso;
+            let crosses = cell_side[c] == 0;
             let (mut wlo, mut whi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
             if crosses {
                 for corner in 0..8 {
@@ -225,29 +284,8 @@ pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32
         (m != usize::MAX).then_some((m, wrapped))
     };
 
-    // Every voxel's side of the surface: its cell's where the surface does not cross the cell
-    // (the field there lies between the values it is made of: the trilinear's corners, the
-    // spline's 4³ coefficients), else the field sampled.
-    let cx = nx.max(2) - 1;
-    let cy = ny.max(2) - 1;
-    let cz = nz.max(2) - 1;
-    let cell_side: Vec<i8> = (0..cx * cy * cz)
-        .into_par_iter()
-        .map(|c| {
-            let (i, j, k) = (c % cx, (c / cx) % cy, c / (cx * cy));
-            let (mut above, mut below) = (false, false);
-            for z in i_span(k, nz, reach) {
-                for y in i_span(j, ny, reach) {
-                    for x in i_span(i, nx, reach) {
-                        let v = field.at(x, y, z);
-                        above |= v > iso;
-                        below |= v <= iso;
-                    }
-                }
-            }
-            if above && below { 0 } else if above { 1 } else { -1 }
-        })
-        .collect();
+    // Every voxel's side of the surface: its cell's where the surface does not cross the cell,
+    // else the field sampled.
     let inside_value = (iso + 1.0) as f32;
     let outside_value = (iso - 1.0) as f32;
     let values: Vec<Vec<f32>> = leaves
@@ -261,7 +299,7 @@ pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32
                     match cell_side[c(u.x, cx) + cx * (c(u.y, cy) + cy * c(u.z, cz))] {
                         1 => inside_value,
                         -1 => outside_value,
-                        _ => field.sample(kernel, u).0 as f32,
+                        _ => field.value(kernel, u) as f32,
                     }
                 })
                 .collect()
@@ -403,9 +441,4 @@ pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32
         })
         .collect();
     Ok(LevelSet::from_leaves(voxel_size, half_width, &leaves)?)
-}
-
-/// Indices of cell `i`'s samples along an axis of `n`, `reach` more on each side.
-fn i_span(i: usize, n: usize, reach: usize) -> std::ops::RangeInclusive<usize> {
-    i.saturating_sub(reach)..=(i + 1 + reach).min(n - 1)
 }
