@@ -1,6 +1,6 @@
 //! A narrow-band level set straight from a smooth field on a scan's grid: the surface is the
-//! field's iso-surface under trilinear or cubic B-spline reconstruction. The fine voxels next to it (a face
-//! neighbour on the other side) are projected onto it (Newton steps along the field's gradient);
+//! field's iso-surface under trilinear or cubic B-spline reconstruction. The fine voxels next to
+//! it (a face neighbour on the other side) are projected onto it (Newton steps along the field's gradient);
 //! every other voxel of the band takes the nearest of those surface points, carried outward from
 //! neighbour to neighbour, and its distance to that point's tangent plane. This replaces meshing
 //! the field and converting the mesh back (OpenVDB's `levelSetRebuild`: half the time on the
