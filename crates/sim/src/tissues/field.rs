@@ -1,6 +1,6 @@
 //! A narrow-band level set straight from a smooth field on a scan's grid: the surface is the
-//! field's iso-surface under trilinear interpolation. The fine voxels next to it (a face
-//! neighbour on the other side) are projected onto it (Newton steps along the field's gradient);
+//! field's iso-surface under trilinear or cubic B-spline reconstruction. The fine voxels next to
+//! it (a face neighbour on the other side) are projected onto it (Newton steps along the field's gradient);
 //! every other voxel of the band takes the nearest of those surface points, carried outward from
 //! neighbour to neighbour, and its distance to that point's tangent plane. This replaces meshing
 //! the field and converting the mesh back (OpenVDB's `levelSetRebuild`: half the time on the
@@ -36,10 +36,92 @@ impl GridField<'_> {
         f64::from(self.values[i + self.dims[0] * (j + self.dims[1] * k)])
     }
 
+    /// Value and gradient (per index unit) at a continuous index under `kernel`.
+    fn sample(&self, kernel: Kernel, u: DVec3) -> (f64, DVec3) {
+        match kernel {
+            Kernel::Trilinear => self.trilinear(u),
+            Kernel::CubicBSpline => self.bspline(u),
+        }
+    }
+
+    /// Value alone at a continuous index under `kernel` (the spline's without its gradient).
+    fn value(&self, kernel: Kernel, u: DVec3) -> f64 {
+        if kernel == Kernel::Trilinear {
+            return self.trilinear(u).0;
+        }
+        let mut base = [0usize; 3];
+        let mut w = [[0f64; 4]; 3];
+        let mut interior = true;
+        for c in 0..3 {
+            let x = u[c].clamp(0.0, (self.dims[c] - 1) as f64);
+            let i = x.floor();
+            let t = x - i;
+            let s = 1.0 - t;
+            w[c] = [s * s * s / 6.0, (3.0 * t * t * t - 6.0 * t * t + 4.0) / 6.0, (-3.0 * t * t * t + 3.0 * t * t + 3.0 * t + 1.0) / 6.0, t * t * t / 6.0];
+            interior &= i >= 1.0 && (i as usize) + 2 < self.dims[c];
+            base[c] = (i as usize).saturating_sub(1);
+        }
+        if !interior {
+            return self.bspline(u).0;
+        }
+        let (sy, sz) = (self.dims[0], self.dims[0] * self.dims[1]);
+        let start = base[0] + sy * base[1] + sz * base[2];
+        let mut value = 0.0;
+        for (c, wz) in w[2].iter().enumerate() {
+            let mut plane = 0.0;
+            for (b, wy) in w[1].iter().enumerate() {
+                let row = &self.values[start + c * sz + b * sy..][..4];
+                let line: f64 = row.iter().zip(&w[0]).map(|(v, wx)| f64::from(*v) * wx).sum();
+                plane += wy * line;
+            }
+            value += wz * plane;
+        }
+        value
+    }
+
+    /// Cubic B-spline value and gradient at a continuous index, the values being the spline's
+    /// coefficients; outside the grid the border's values continue.
+    fn bspline(&self, u: DVec3) -> (f64, DVec3) {
+        let mut base = [0i64; 3];
+        let mut w = [[0f64; 4]; 3];
+        let mut d = [[0f64; 4]; 3];
+        for c in 0..3 {
+            let x = u[c].clamp(0.0, (self.dims[c] - 1) as f64);
+            let i = x.floor();
+            let t = x - i;
+            base[c] = i as i64 - 1;
+            let s = 1.0 - t;
+            w[c] = [s * s * s / 6.0, (3.0 * t * t * t - 6.0 * t * t + 4.0) / 6.0, (-3.0 * t * t * t + 3.0 * t * t + 3.0 * t + 1.0) / 6.0, t * t * t / 6.0];
+            d[c] = [-0.5 * s * s, 0.5 * (3.0 * t * t - 4.0 * t), 0.5 * (-3.0 * t * t + 2.0 * t + 1.0), 0.5 * t * t];
+        }
+        let index = |c: usize, o: usize| (base[c] + o as i64).clamp(0, self.dims[c] as i64 - 1) as usize;
+        let (mut value, mut g) = (0.0, DVec3::ZERO);
+        for c in 0..4 {
+            let k = index(2, c);
+            let (mut v_yz, mut gx_yz, mut gy_yz) = (0.0, 0.0, 0.0);
+            let mut v_y = [0.0; 4];
+            for b in 0..4 {
+                let j = index(1, b);
+                let (mut v, mut gx) = (0.0, 0.0);
+                for a in 0..4 {
+                    let f = self.at(index(0, a), j, k);
+                    v += w[0][a] * f;
+                    gx += d[0][a] * f;
+                }
+                v_y[b] = v;
+                v_yz += w[1][b] * v;
+                gx_yz += w[1][b] * gx;
+                gy_yz += d[1][b] * v;
+            }
+            value += w[2][c] * v_yz;
+            g += DVec3::new(w[2][c] * gx_yz, w[2][c] * gy_yz, d[2][c] * v_yz);
+        }
+        (value, g)
+    }
+
     /// Trilinear value and gradient (per index unit) at a continuous index; outside the grid
-    /// the border's values continue. (Catmull–Rom was tried: enamel normals 0.3° better,
-    /// dentin's 1° worse, pulp volume further off, at 8× the samples.)
-    fn sample(&self, u: DVec3) -> (f64, DVec3) {
+    /// the border's values continue.
+    fn trilinear(&self, u: DVec3) -> (f64, DVec3) {
         let mut base = [0usize; 3];
         let mut t = [0f64; 3];
         for c in 0..3 {
@@ -74,11 +156,32 @@ impl GridField<'_> {
     }
 }
 
+/// How the field is reconstructed between its samples.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    Trilinear,
+    /// The values are a cubic B-spline's coefficients (not prefiltered: the spline smooths as a
+    /// blur of σ ≈ 0.58 samples would, so it does not pass through them): normals continuous
+    /// across the scan's cells. Prefiltered to pass through the samples it kept the partial
+    /// volume's aliasing (a ball at 0.3 mm: 5.6° against 2.1°, trilinear 6.3°).
+    CubicBSpline,
+}
+
 /// Level set (voxel `voxel_size` mm, band `half_width` voxels each side) of where `field` >
 /// `iso`, with distances to the field's trilinear iso-surface (see the module's text). The
 /// distances come from surface points, not from the field's slope, so they hold where the field
 /// is flat (far inside or outside, on a fine scan).
 pub fn level_set_from_field(field: &GridField<'_>, iso: f32, voxel_size: f64, half_width: f64) -> Result<LevelSet> {
+    level_set_from_field_with(field, Kernel::Trilinear, iso, voxel_size, half_width)
+}
+
+/// As [`level_set_from_field`], the field reconstructed by `kernel`.
+pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32, voxel_size: f64, half_width: f64) -> Result<LevelSet> {
+    // Samples a cell's value depends on: its corners, or for the spline one more on each side.
+    let reach = match kernel {
+        Kernel::Trilinear => 0usize,
+        Kernel::CubicBSpline => 1,
+    };
     let [nx, ny, nz] = field.dims;
     let iso = f64::from(iso);
     let h = voxel_size;
@@ -89,22 +192,49 @@ pub fn level_set_from_field(field: &GridField<'_>, iso: f32, voxel_size: f64, ha
     let spacing = [a.x_axis.length(), a.y_axis.length(), a.z_axis.length()];
     let max_step = 0.5 * spacing.iter().cloned().fold(f64::INFINITY, f64::min);
 
+    // Every cell's side of the surface: 1 or −1 where the surface does not cross the cell (the
+    // field there lies between the values it is made of: the trilinear's corners, the spline's
+    // 4³ coefficients, the corners of the cell and its 26 neighbours), else 0.
+    let (cx, cy, cz) = (nx.max(2) - 1, ny.max(2) - 1, nz.max(2) - 1);
+    let cells = cx * cy * cz;
+    let mut cell_side: Vec<i8> = (0..cells)
+        .into_par_iter()
+        .map(|c| {
+            let (i, j, k) = (c % cx, (c / cx) % cy, c / (cx * cy));
+            let (mut above, mut below) = (false, false);
+            for z in k..=(k + 1).min(nz - 1) {
+                for y in j..=(j + 1).min(ny - 1) {
+                    for x in i..=(i + 1).min(nx - 1) {
+                        let v = field.at(x, y, z);
+                        above |= v > iso;
+                        below |= v <= iso;
+                    }
+                }
+            }
+            if above && below { 0 } else if above { 1 } else { -1 }
+        })
+        .collect();
+    for _ in 0..reach {
+        for (axis, stride) in [(0, 1), (1, cx), (2, cx * cy)] {
+            let len = [cx, cy, cz][axis];
+            let src = cell_side.clone();
+            cell_side.par_iter_mut().enumerate().for_each(|(c, side)| {
+                let at = (c / stride) % len;
+                let lo = if at > 0 { src[c - stride] } else { *side };
+                let hi = if at + 1 < len { src[c + stride] } else { *side };
+                if lo != *side || hi != *side {
+                    *side = 0;
+                }
+            });
+        }
+    }
+
     // Leaves within the band of a cell the iso-surface passes through.
-    let cells = (nx.max(2) - 1) * (ny.max(2) - 1) * (nz.max(2) - 1);
-    let (cx, cy) = (nx.max(2) - 1, ny.max(2) - 1);
     let mut leaves: Vec<IVec3> = (0..cells)
         .into_par_iter()
         .flat_map_iter(|c| {
             let (i, j, k) = (c % cx, (c / cx) % cy, c / (cx * cy));
-            let mut lo = f64::INFINITY;
-            let mut hi = f64::NEG_INFINITY;
-            for corner in 0..8 {
-                let p = [i + (corner & 1), j + ((corner >> 1) & 1), k + ((corner >> 2) & 1)];
-                let v = field.at(p[0].min(nx - 1), p[1].min(ny - 1), p[2].min(nz - 1));
-                lo = lo.min(v);
-                hi = hi.max(v);
-            }
-            let crosses = lo <= iso && hi > iso;
+            let crosses = cell_side[c] == 0;
             let (mut wlo, mut whi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
             if crosses {
                 for corner in 0..8 {
@@ -154,29 +284,8 @@ pub fn level_set_from_field(field: &GridField<'_>, iso: f32, voxel_size: f64, ha
         (m != usize::MAX).then_some((m, wrapped))
     };
 
-    // Every voxel's side of the surface: its cell's where the surface does not cross the cell
-    // (the trilinear field there lies between its corners' values), else the field sampled.
-    let cx = nx.max(2) - 1;
-    let cy = ny.max(2) - 1;
-    let cz = nz.max(2) - 1;
-    let cell_side: Vec<i8> = (0..cx * cy * cz)
-        .into_par_iter()
-        .map(|c| {
-            let (i, j, k) = (c % cx, (c / cx) % cy, c / (cx * cy));
-            let (mut above, mut below) = (false, false);
-            let span = |i: usize, n: usize| i..=(i + 1).min(n - 1);
-            for z in span(k, nz) {
-                for y in span(j, ny) {
-                    for x in span(i, nx) {
-                        let v = field.at(x, y, z);
-                        above |= v > iso;
-                        below |= v <= iso;
-                    }
-                }
-            }
-            if above && below { 0 } else if above { 1 } else { -1 }
-        })
-        .collect();
+    // Every voxel's side of the surface: its cell's where the surface does not cross the cell,
+    // else the field sampled.
     let inside_value = (iso + 1.0) as f32;
     let outside_value = (iso - 1.0) as f32;
     let values: Vec<Vec<f32>> = leaves
@@ -190,7 +299,7 @@ pub fn level_set_from_field(field: &GridField<'_>, iso: f32, voxel_size: f64, ha
                     match cell_side[c(u.x, cx) + cx * (c(u.y, cy) + cy * c(u.z, cz))] {
                         1 => inside_value,
                         -1 => outside_value,
-                        _ => field.sample(u).0 as f32,
+                        _ => field.value(kernel, u) as f32,
                     }
                 })
                 .collect()
@@ -203,7 +312,7 @@ pub fn level_set_from_field(field: &GridField<'_>, iso: f32, voxel_size: f64, ha
     let project = |p: DVec3| -> Option<DVec3> {
         let mut q = p;
         for _ in 0..NEWTON_STEPS {
-            let (f, g) = field.sample(inverse * (q - t));
+            let (f, g) = field.sample(kernel, inverse * (q - t));
             let r = f - iso;
             if r.abs() < CONVERGED {
                 return Some(q);
@@ -262,7 +371,7 @@ pub fn level_set_from_field(field: &GridField<'_>, iso: f32, voxel_size: f64, ha
         for (n, foot) in list {
             nearest[l][n] = feet.len() as u32;
             feet.push(foot);
-            normals.push((gradient_to_world * field.sample(inverse * (foot - t)).1).normalize_or_zero());
+            normals.push((gradient_to_world * field.sample(kernel, inverse * (foot - t)).1).normalize_or_zero());
         }
     }
 

@@ -1,8 +1,7 @@
 //! From a CBCT volume to one tooth's tissues: calibrate grey values, segment the tooth, crop to
 //! it, and turn each tissue into a smooth narrow-band level set at a voxel size finer than the
-//! scan's (the blurred indicator's iso-surface at 0.5: distances taken on the fine grid by
-//! [`crate::tissues::field`], or for the pulp the surface meshed and converted back, so no
-//! staircase remains).
+//! scan's (the blurred indicator's iso-surface at 0.5 under a cubic B-spline, distances taken on
+//! the fine grid by [`crate::tissues::field`], so no staircase remains).
 //! The pulp's surface is then moved along its normals to enclose its partial-volume measure
 //! (see [`NestedBuilder::match_partial_volume`]).
 use std::time::Instant;
@@ -11,7 +10,7 @@ use dentsim_cbct::phantom::gaussian_blur;
 use dentsim_cbct::volume::face_neighbours;
 use dentsim_cbct::{calibrate, crop, crop_labels, enclosed_volume, find_teeth, segment, tooth_box, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
 
-use dentsim_vdb::{DenseVolume, LevelSet};
+use dentsim_vdb::LevelSet;
 use serde::Serialize;
 
 use crate::error::{invalid, stopped, Error, Result};
@@ -69,7 +68,8 @@ pub struct ScanReport {
     /// Scan voxel box kept around the tooth (min inclusive, max exclusive).
     pub crop_min: [usize; 3],
     pub crop_max: [usize; 3],
-    /// Dentin voxels outside the main dentin body, given to the enamel.
+    /// Dentin voxels outside the main dentin body, given to the enamel they touch (else to the
+    /// bone: not the tooth).
     pub dentin_specks_relabelled: usize,
     pub calibration: Calibration,
     /// With every tooth segmented ([`TissuesFromScan::run_all`]): this tooth as found in the
@@ -209,7 +209,7 @@ impl TissuesFromScan {
         let region = tooth_box(&labels, self.fdi, None, self.margin_mm).map_err(cbct)?;
         let tooth_scan = crop(scan, &region).map_err(cbct)?;
         let mut tooth_labels = crop_labels(&labels, &region).map_err(cbct)?;
-        let specks = keep_largest_component(&mut tooth_labels, Label::Dentin, Label::Enamel);
+        let specks = keep_largest_component(&mut tooth_labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
         seconds.crop = clock.elapsed().as_secs_f64();
 
         let clock = Instant::now();
@@ -367,7 +367,7 @@ impl NestedBuilder<'_> {
         for (v, inside) in field.iter_mut().zip(&inside) {
             *v = if *inside { v.max(0.5 + GREY_SIDE) } else { v.min(0.5 - GREY_SIDE) };
         }
-        self.level_set(&field, 0.5, labels.contains(&Label::Dentin)).map(Some)
+        self.level_set(&field, 0.5).map(Some)
     }
 
     /// Places the surface between two voxels where the scan's grey says, not midway: at a voxel on
@@ -482,19 +482,15 @@ impl NestedBuilder<'_> {
         Ok(Some(VolumeFit { measure, offset_mm }))
     }
 
-    /// The field's iso-surface as a level set at the model's voxel size: for the tooth and its
-    /// dentin core straight from the field ([`field`], ~2× faster), for the pulp and lesions by
-    /// meshing the field and converting the mesh back (OpenVDB's `levelSetRebuild`): their canals
-    /// and horns are 1–2 scan voxels wide, where the mesh's chords held the fast family's pulp
-    /// volumes and normals better (canine in water +23.5 % vs +26.9 %, normals 2–3° better).
-    fn level_set(&self, field: &[f32], iso: f32, wide: bool) -> Result<LevelSet> {
-        if !wide {
-            let dims = self.scan.dims.map(|d| d as u32);
-            let dense = DenseVolume { dims, index_to_world: self.scan.index_to_world(), values: field };
-            return Ok(LevelSet::from_dense(&dense, iso, true, self.voxel_size_mm, 3.0)?);
-        }
+    /// The field's iso-surface as a level set at the model's voxel size, straight from the field
+    /// ([`field`]) with the field's values as a cubic B-spline's coefficients. The trilinear
+    /// iso-surface kinks at every scan cell's face; the spline's has continuous normals (noisy
+    /// fast family, trilinear and the pulp meshed → spline: enamel 12.8 → 9.2°, dentin 11.9 →
+    /// 8.1°, pulp 16.4 → 13.8°). It smooths as a blur of σ ≈ 0.58 scan voxels would, so convex
+    /// bodies come out a little smaller (the full family's dentins −0.3…−0.8 %).
+    fn level_set(&self, field: &[f32], iso: f32) -> Result<LevelSet> {
         let grid = field::GridField { dims: self.scan.dims, index_to_world: self.scan.index_to_world(), values: field };
-        field::level_set_from_field(&grid, iso, self.voxel_size_mm, 3.0)
+        field::level_set_from_field_with(&grid, field::Kernel::CubicBSpline, iso, self.voxel_size_mm, 3.0)
     }
 
     /// The tissues' level sets; `go_on(step)` answering false stops before the next step.
@@ -546,11 +542,14 @@ impl NestedBuilder<'_> {
     }
 }
 
-/// Relabels every `label` voxel outside its largest 6-connected component as `replacement`;
-/// returns how many. A tooth's dentin is one body: other specks are partial-volume voxels where
-/// bright enamel meets dark air through dentin's grey range, and as dentin they would punch holes
-/// in the enamel.
-fn keep_largest_component(labels: &mut dentsim_cbct::LabelVolume, label: Label, replacement: Label) -> usize {
+/// Relabels every `label` voxel outside its largest 6-connected component as `replacement` where
+/// its speck touches `replacement`, else as `elsewhere`; returns how many. A tooth's dentin is one
+/// body: specks on the enamel are partial-volume voxels where bright enamel meets dark air
+/// through dentin's grey range, and as dentin they would punch holes in the enamel. Specks
+/// touching no enamel are not the tooth (bone at the alveolar crest, next to the root): as enamel
+/// they were a skirt around the root (the jaw's lower molar, ideal scan: 4.7 mm³ of enamel
+/// 2 mm below the true enamel's edge, most of its triangles with normals > 20° off).
+fn keep_largest_component(labels: &mut dentsim_cbct::LabelVolume, label: Label, replacement: Label, elsewhere: Label) -> usize {
     let [nx, ny, nz] = labels.dims;
     let code = label as u8;
     let mut component = vec![u32::MAX; labels.labels.len()];
@@ -577,10 +576,16 @@ fn keep_largest_component(labels: &mut dentsim_cbct::LabelVolume, label: Label, 
         sizes.push(size);
     }
     let Some(largest) = (0..sizes.len()).max_by_key(|&c| sizes[c]) else { return 0 };
+    let mut touches = vec![false; sizes.len()];
+    for (n, &c) in component.iter().enumerate() {
+        if c != u32::MAX && c != largest as u32 && !touches[c as usize] {
+            touches[c as usize] = face_neighbours(n, [nx, ny, nz]).into_iter().flatten().any(|m| labels.labels[m] == replacement as u8);
+        }
+    }
     let mut moved = 0;
     for (l, c) in labels.labels.iter_mut().zip(&component) {
         if *l == code && *c != largest as u32 {
-            *l = replacement as u8;
+            *l = if touches[*c as usize] { replacement } else { elsewhere } as u8;
             moved += 1;
         }
     }
