@@ -264,7 +264,11 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
         m < d && d < e && (0.12..=1.2).contains(&r)
     });
     let grid = Coarse::new(vol);
-    let mut tested: Vec<([f64; 3], Layering)> = proposals.iter().map(|&p| (p, grid.layering(p))).collect();
+    let mut thresholds: Vec<f64> = proposals.iter().map(|p| 0.5 * (p[0] + p[1])).collect();
+    thresholds.sort_by(f64::total_cmp);
+    thresholds.dedup();
+    let outsides: Vec<(f64, Vec<bool>)> = thresholds.into_par_iter().map(|t| (t, grid.outside(t))).collect();
+    let mut tested: Vec<([f64; 3], Layering)> = proposals.par_iter().map(|&p| (p, grid.layering(p, &outsides))).collect();
     tested.sort_by(|a, b| b.1.score().total_cmp(&a.1.score()));
     let peaks_text = found.iter().map(|p| format!("{:.0}", p.grey)).collect::<Vec<_>>().join(", ");
     let Some((best, lay)) = tested.first().cloned() else {
@@ -469,10 +473,21 @@ impl Coarse {
     /// medium the tooth encloses (an empty pulp chamber of an extracted tooth: walks from the
     /// dentin would end in it) read as inside. The first alone misreads teeth with an empty
     /// pulp; the second alone misses outside medium walled in by bone in a jaw.
-    fn layering(&self, proposal: [f64; 3]) -> Layering {
+    /// `outsides` holds [`Self::outside`] by its threshold (proposals sharing a medium and a
+    /// dentin share it; its flood is serial, so it is made once for each).
+    fn layering(&self, proposal: [f64; 3], outsides: &[(f64, Vec<bool>)]) -> Layering {
         let all = vec![true; self.values.len()];
         let a = self.layering_with(proposal, &all);
-        let b = self.layering_with(proposal, &self.outside(0.5 * (proposal[0] + proposal[1])));
+        let t1 = 0.5 * (proposal[0] + proposal[1]);
+        let made;
+        let outside = match outsides.iter().find(|(t, _)| *t == t1) {
+            Some((_, o)) => o,
+            None => {
+                made = self.outside(t1);
+                &made
+            }
+        };
+        let b = self.layering_with(proposal, outside);
         if b.score() > a.score() {
             b
         } else {
