@@ -53,6 +53,8 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   const double h = grid.voxelSize()[0];
   const VolumeKernels kernels(h);
   const float reach = bg + float(h) * 1.01f;
+  // Only pass 2 (the measure) reads voxels past the band: an unmeasured cut reads none of them.
+  const float read_limit = measured ? reach : bg;
   auto& before = impl.scratch_old;
   if (before.size() < expected) {  // grows once to the largest patch, then reused
     before.resize(expected);
@@ -123,16 +125,17 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
         float* weight_row = weights + row;
         xs = xe;
         if (!leaf && !(tile < bg)) {
-          for (int i = 0; i < n; ++i) old_row[i] = tile;
+          if (measured)
+            for (int i = 0; i < n; ++i) old_row[i] = tile;
           continue;
         }
         const float* src = leaf ? leaf->buffer().data() + (((x & (L - 1)) << 2 * LOG2) | yz) : &tile;
         ptrdiff_t stride = leaf ? L * L : 0;
         for (int i = 0; i < n; ++i) {
           const float t = t_row[i] + offset;
-          if (!(t < reach)) continue;  // unread; pass 2 knows it from the tool
+          if (!(t < read_limit)) continue;  // unread; pass 2 knows it from the tool
           const float old = src[i * stride];
-          old_row[i] = old;
+          if (measured) old_row[i] = old;
           const float now = -t < bg ? -t : bg;
           const bool cuts = (t < bg) & (now > old);
           if (measured) weight_row[i] = kernels.curvature_weight(cuts ? now : old);
