@@ -272,17 +272,19 @@ void LevelSet::mark_material_blocks(std::array<int32_t, 3> index_min, std::array
       for (int bx = 0; bx < count[0]; ++bx, ++b) {
         const Coord origin(first[0] + bx * L, first[1] + by * L, first[2] + bz * L);
         // A cut's new values are at most the background: a block whose every voxel is there
-        // already (an outside tile, or a leaf a cut left all outside) cannot change. A leaf with
-        // an active voxel holds one below it; an empty leaf is read (an inside one stops at its
-        // first voxel).
+        // already (an outside tile, or a leaf a cut left all outside: 1) cannot change; one with
+        // a voxel below it (an inside tile, a leaf with an active voxel or an inside one) is 2.
+        // An empty leaf is read (an inside one stops at its first voxel).
+        uint8_t mark = 0;
         if (const auto* leaf = acc.probeConstLeaf(origin)) {
           bool below = !leaf->isEmpty();
           const float* v = leaf->buffer().data();
           for (openvdb::Index i = 0; !below && i < FloatTree::LeafNodeType::SIZE; ++i) below = v[i] < bg;
-          if (below) out[b] = 1;
+          mark = below ? 2 : 1;
         } else if (acc.getValue(origin) < bg) {
-          out[b] = 1;
+          mark = 2;
         }
+        out[b] = std::max(out[b], mark);
       }
 }
 

@@ -76,8 +76,9 @@ pub struct Sweep {
     /// Index box of the patch (inclusive).
     pub lo: IVec3,
     pub hi: IVec3,
-    /// Which leaf-aligned 8³ blocks of the box hold material (see [`Sweep::build_in`]), and per
-    /// row of blocks the x range (voxel index, inclusive) from the first such block to the last.
+    /// Which leaf-aligned 8³ blocks of the box hold material (see [`Sweep::build_in`]: 2, or 1
+    /// for a leaf all at the background), and per row of blocks the x range (voxel index,
+    /// inclusive) from the first such block to the last.
     material: Vec<u8>,
     material_rows: Vec<(i32, i32)>,
     rows: RowScratch,
@@ -160,16 +161,19 @@ impl Sweep {
     /// first sub-pose's, which the sweep evaluates anyway.
     pub fn build_skipping(&mut self, burr: &Burr, from: DAffine3, to: DAffine3, voxel: f64, band: f64, done: Option<Done>) -> Result<()> {
         self.build_in(burr, from, to, voxel, band, done, |_, _, blocks| {
-            blocks.fill(1);
+            blocks.fill(2);
             Ok(())
         })
     }
 
     /// [`build_skipping`](Self::build_skipping) where only blocks that `mark_material(box min,
-    /// box dims, blocks)` sets to 1 can change (blocks as [`block_counts`] counts them): the
+    /// box dims, blocks)` sets to 2 can change (blocks as [`block_counts`] counts them): the
     /// others take the cut-off without an evaluation. A cut changes nothing in a block where every
-    /// grid is an outside tile, so marking the blocks with material in any grid leaves the cut
-    /// exact, and a head mostly in the air costs what its part in the tissue costs.
+    /// grid's voxels are at the background (see `LevelSet::mark_material_blocks`), so marking the
+    /// blocks with material in any grid leaves the cut exact, and a head mostly in the air costs
+    /// what its part in the tissue costs. A round burr's rows also take in the blocks marked 1
+    /// (leaves a cut left clear): its distances depend, to f32 rounding, on where a row's run
+    /// starts, and that start stays where it always was.
     #[allow(clippy::too_many_arguments)]
     pub fn build_in(
         &mut self,
@@ -251,8 +255,9 @@ impl Sweep {
         self.material.resize(blocks.iter().product(), 0);
         mark_material(lo, patch.dims, &mut self.material)?;
         self.material_rows.clear();
+        let least = if burr.ball_radius().is_some() { 1 } else { 2 };
         for row in self.material.chunks_exact(blocks[0]) {
-            let range = match (row.iter().position(|m| *m != 0), row.iter().rposition(|m| *m != 0)) {
+            let range = match (row.iter().position(|m| *m >= least), row.iter().rposition(|m| *m >= least)) {
                 (Some(a), Some(b)) => (first_block.x + a as i32 * LEAF_DIM, first_block.x + b as i32 * LEAF_DIM + LEAF_DIM - 1),
                 _ => (1, 0),
             };
