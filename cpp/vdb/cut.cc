@@ -270,6 +270,7 @@ void LevelSet::mark_material_blocks(std::array<int32_t, 3> index_min, std::array
   for (int bz = 0; bz < count[2]; ++bz)
     for (int by = 0; by < count[1]; ++by)
       for (int bx = 0; bx < count[0]; ++bx, ++b) {
+        if (out[b] == 2) continue;  // another grid's material: nothing to add
         const Coord origin(first[0] + bx * L, first[1] + by * L, first[2] + bz * L);
         // A cut's new values are at most the background: a block whose every voxel is there
         // already (an outside tile, or a leaf a cut left all outside: 1) cannot change; one with
@@ -279,7 +280,12 @@ void LevelSet::mark_material_blocks(std::array<int32_t, 3> index_min, std::array
         if (const auto* leaf = acc.probeConstLeaf(origin)) {
           bool below = !leaf->isEmpty();
           const float* v = leaf->buffer().data();
-          for (openvdb::Index i = 0; !below && i < FloatTree::LeafNodeType::SIZE; ++i) below = v[i] < bg;
+          // 64 at a time without a branch (vectorised); a cut-clear leaf is read whole.
+          for (openvdb::Index i = 0; !below && i < FloatTree::LeafNodeType::SIZE; i += 64) {
+            int any = 0;
+            for (openvdb::Index j = 0; j < 64; ++j) any |= int(v[i + j] < bg);
+            below = any != 0;
+          }
           mark = below ? 2 : 1;
         } else if (acc.getValue(origin) < bg) {
           mark = 2;
