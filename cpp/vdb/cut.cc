@@ -7,8 +7,9 @@
 // voxel's old value for last_changes (undo and dirty tracking; the buffer is reused, no
 // allocation once grown). Removed volume is measured exactly as LevelSet::volume measures: the smoothed
 // Heaviside with its curvature correction, evaluated before and after on every voxel whose value or
-// Laplacian changed. Cost: one accessor probe per leaf block of the box and one buffer read per
-// voxel within the tool's band plus one voxel; voxels farther outside the tool are not read.
+// Laplacian changed. Cost: one accessor probe per leaf block the row spans reach and one buffer
+// read per voxel within the tool's band (plus one voxel when measured); voxels farther outside
+// the tool are not read.
 #include <limits>
 
 #include "impl.h"
@@ -74,10 +75,10 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
                      index_min[2] + int(dims[2]) - 1};
   // Pass 1, row by row within each row's span: voxels the tool reaches (within the band plus
   // one voxel) have their old value kept in `before` and are raised where the tool is deeper.
-  // Each leaf block of the box is probed once up front; a row segment is then read through a
-  // pointer stepping along x in the leaf's buffer (z is its fastest axis), or standing on the
-  // tile value of a block without a leaf. An outside tile cannot change: its voxels just take
-  // the tile value in `before`, for pass 2.
+  // Each leaf block is probed once, when a span first reaches it; a row segment is then read
+  // through a pointer stepping along x in the leaf's buffer (z is its fastest axis), or standing
+  // on the tile value of a block without a leaf. An outside tile cannot change: its voxels just
+  // take the tile value in `before`, for pass 2 (measured cuts only).
   // At most every voxel changes: the buffers grow once to the largest patch and are written
   // through pointers (push_back built each entry on the stack and stalled reloading it).
   auto& changed_buffer = impl.scratch_changed;
@@ -92,19 +93,18 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   const int nb_x = (hi[0] - fx) / L + 1, nb_y = (hi[1] - fy) / L + 1, nb_z = (hi[2] - fz) / L + 1;
   auto& leaves = impl.scratch_leaves;
   auto& tiles = impl.scratch_tiles;
-  leaves.resize(size_t(nb_x) * nb_y * nb_z);  // grows to the largest patch, then reused
-  tiles.resize(leaves.size());
-  bool all_outside = true;
-  for (int bz = 0; bz < nb_z; ++bz)
-    for (int by = 0; by < nb_y; ++by)
-      for (int bx = 0; bx < nb_x; ++bx) {
-        const Coord origin(fx + bx * L, fy + by * L, fz + bz * L);
-        const size_t b = size_t(bx) + size_t(nb_x) * (size_t(by) + size_t(nb_y) * size_t(bz));
-        leaves[b] = acc.probeLeaf(origin);
-        tiles[b] = leaves[b] ? 0.f : acc.getValue(origin);
-        all_outside = all_outside && !leaves[b] && !(tiles[b] < bg);
-      }
-  if (all_outside) return stats;  // the tool is nowhere near this tissue
+  // Blocks are probed when a row first reaches them (NaN tile: not yet): a head's box holds
+  // far more blocks than its spans touch, and a probe costs about what a voxel row does.
+  // (Within capacity: the buffers grow to the largest patch, then are reused.)
+  leaves.assign(size_t(nb_x) * nb_y * nb_z, nullptr);
+  tiles.assign(leaves.size(), std::numeric_limits<float>::quiet_NaN());
+  auto probe = [&](size_t b, int x, int y, int z) {
+    if (std::isnan(tiles[b])) {
+      const Coord origin(x & ~(L - 1), y & ~(L - 1), z & ~(L - 1));
+      leaves[b] = acc.probeLeaf(origin);
+      tiles[b] = leaves[b] ? 0.f : acc.getValue(origin);
+    }
+  };
   for (int k = 0; k < int(dims[2]); ++k)
     for (int j = 0; j < int(dims[1]); ++j) {
       const size_t r = size_t(j) + size_t(dims[1]) * size_t(k);
@@ -116,6 +116,7 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
         const int x = index_min[0] + xs;
         const int xe = std::min(s1, xs + (L - (x & (L - 1))));  // end of this leaf block's part
         const size_t b = row_blocks + size_t((x - fx) / L);
+        probe(b, x, y, z);
         Leaf* leaf = leaves[b];
         const float tile = tiles[b];
         const size_t row = box.index(xs, j, k);
@@ -183,6 +184,7 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
     const int x = index_min[0] + i, y = index_min[1] + j, z = index_min[2] + k;
     if (!box.contains(i, j, k)) return acc.getValue(Coord(x, y, z));
     const size_t b = size_t((x - fx) / L) + size_t(nb_x) * (size_t((y - fy) / L) + size_t(nb_y) * size_t((z - fz) / L));
+    probe(b, x, y, z);
     const Leaf* leaf = leaves[b];
     return leaf ? leaf->buffer().data()[Leaf::coordToOffset(Coord(x, y, z))] : tiles[b];
   };
