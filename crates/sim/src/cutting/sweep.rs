@@ -85,6 +85,8 @@ pub struct Sweep {
     /// Evaluates every row the general way, bounded by the head's one cylinder, without the
     /// one-pose fast path and the slabs; the tests pin those to it.
     exhaustive: bool,
+    /// The cut-off (f32 bits) that every value of the patch outside its spans holds, once built.
+    spans_only: Option<u32>,
 }
 
 /// One row run's distances for a non-round head (see [`Sweep::build_in`]), voxel by voxel.
@@ -240,14 +242,27 @@ impl Sweep {
         self.lo = lo;
         self.hi = hi;
         let patch = &mut self.patch;
-        patch.index_min = lo;
-        patch.dims = dims.to_array();
         let total = dims.x as usize * dims.y as usize * dims.z as usize;
         if total > MAX_PATCH_VOXELS {
             return Err(invalid("stroke", format!("would touch {total} voxels (> {MAX_PATCH_VOXELS}); the poses are too far apart, split the stroke")));
         }
-        patch.values.clear();
-        patch.values.resize(total, cutoff as f32);
+        // Every value is the cut-off: only the last build's spans hold others (every value a build
+        // writes is at most the cut-off, and a span runs from a row's first value below it to its
+        // last), so those are put back rather than the whole box filled again.
+        let cutoff32 = cutoff as f32;
+        let [px, py, pz] = patch.dims.map(|d| d as usize);
+        if self.spans_only == Some(cutoff32.to_bits()) && patch.values.len() == px * py * pz && patch.spans.len() == 2 * py * pz {
+            for (row, span) in patch.spans.chunks_exact(2).enumerate() {
+                patch.values[row * px + span[0] as usize..row * px + span[1] as usize].fill(cutoff32);
+            }
+            patch.values.truncate(total);
+        } else {
+            patch.values.clear();
+        }
+        patch.values.resize(total, cutoff32);
+        self.spans_only = Some(cutoff32.to_bits());
+        patch.index_min = lo;
+        patch.dims = dims.to_array();
         patch.spans.clear();
         patch.spans.resize(2 * dims.y as usize * dims.z as usize, 0);
         let (first_block, blocks) = block_counts(lo, patch.dims);
@@ -860,6 +875,42 @@ mod tests {
                 cut += usize::from(f.values.iter().any(|v| *v < cutoff));
             }
             assert!(one_pose >= 8 && cut == 16, "{spec}: {one_pose} one-pose strokes, {cut} that cut");
+        }
+    }
+
+    /// A sweep reused from stroke to stroke (which puts back only the last spans) gives the
+    /// patch a fresh one gives, bit for bit: boxes of every size, round burrs and heads, and a
+    /// stroke refused in between.
+    #[test]
+    fn a_reused_sweep_builds_what_a_fresh_one_builds() {
+        let mut seed = 0x1234_5678_9abc_def1u64;
+        let mut unit = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut reused = Sweep::default();
+        for (case, spec) in ["flame_016", "round:1", "cylinder_flat_012", "round:0.6", "taper_flat_012", "pear_010"].iter().cycle().take(30).enumerate() {
+            let burr = Burr::parse(spec).unwrap();
+            // (A new band, a new cut-off: the whole box is filled again.)
+            let band = [0.15, 0.1][case / 12 % 2];
+            let tilt = DQuat::from_axis_angle(DVec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5).normalize_or(DVec3::Z), 3.0 * unit());
+            let from = DAffine3::from_rotation_translation(tilt, DVec3::new(unit(), unit(), unit()) - 0.5);
+            let to = DAffine3::from_rotation_translation(tilt, from.translation + DVec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5) * 0.4 * unit());
+            let done = Some(Done::Head(CutHead { to_tool: from.inverse(), offset: 0.0 })).filter(|_| burr.ball_radius().is_none());
+            if case % 7 == 6 {
+                // Refused for its box, after the last patch was built.
+                let far = DAffine3::from_rotation_translation(tilt, from.translation + DVec3::splat(60.0));
+                assert!(reused.build_skipping(&burr, from, far, 0.05, band, None).unwrap_err().to_string().contains("would touch"));
+            }
+            reused.build_skipping(&burr, from, to, 0.05, band, done).unwrap();
+            let mut fresh = Sweep::default();
+            fresh.build_skipping(&burr, from, to, 0.05, band, done).unwrap();
+            let (a, b) = (&reused.patch, &fresh.patch);
+            assert_eq!((a.index_min, a.dims, &a.spans), (b.index_min, b.dims, &b.spans), "case {case} {spec}");
+            assert!(a.values.iter().zip(&b.values).all(|(x, y)| x.to_bits() == y.to_bits()), "case {case} {spec}: values differ");
+            assert_eq!(a.values.len(), b.values.len());
         }
     }
 
