@@ -7,8 +7,9 @@
 // voxel's old value for last_changes (undo and dirty tracking; the buffer is reused, no
 // allocation once grown). Removed volume is measured exactly as LevelSet::volume measures: the smoothed
 // Heaviside with its curvature correction, evaluated before and after on every voxel whose value or
-// Laplacian changed. Cost: one accessor probe per leaf block of the box and one buffer read per
-// voxel within the tool's band plus one voxel; voxels farther outside the tool are not read.
+// Laplacian changed. Cost: one accessor probe per leaf block the row spans reach and one buffer
+// read per voxel within the tool's band (plus one voxel when measured); voxels farther outside
+// the tool are not read.
 #include <limits>
 
 #include "impl.h"
@@ -53,6 +54,8 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   const double h = grid.voxelSize()[0];
   const VolumeKernels kernels(h);
   const float reach = bg + float(h) * 1.01f;
+  // Only pass 2 (the measure) reads voxels past the band: an unmeasured cut reads none of them.
+  const float read_limit = measured ? reach : bg;
   auto& before = impl.scratch_old;
   if (before.size() < expected) {  // grows once to the largest patch, then reused
     before.resize(expected);
@@ -72,10 +75,10 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
                      index_min[2] + int(dims[2]) - 1};
   // Pass 1, row by row within each row's span: voxels the tool reaches (within the band plus
   // one voxel) have their old value kept in `before` and are raised where the tool is deeper.
-  // Each leaf block of the box is probed once up front; a row segment is then read through a
-  // pointer stepping along x in the leaf's buffer (z is its fastest axis), or standing on the
-  // tile value of a block without a leaf. An outside tile cannot change: its voxels just take
-  // the tile value in `before`, for pass 2.
+  // Each leaf block is probed once, when a span first reaches it; a row segment is then read
+  // through a pointer stepping along x in the leaf's buffer (z is its fastest axis), or standing
+  // on the tile value of a block without a leaf. An outside tile cannot change: its voxels just
+  // take the tile value in `before`, for pass 2 (measured cuts only).
   // At most every voxel changes: the buffers grow once to the largest patch and are written
   // through pointers (push_back built each entry on the stack and stalled reloading it).
   auto& changed_buffer = impl.scratch_changed;
@@ -90,19 +93,18 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   const int nb_x = (hi[0] - fx) / L + 1, nb_y = (hi[1] - fy) / L + 1, nb_z = (hi[2] - fz) / L + 1;
   auto& leaves = impl.scratch_leaves;
   auto& tiles = impl.scratch_tiles;
-  leaves.resize(size_t(nb_x) * nb_y * nb_z);  // grows to the largest patch, then reused
-  tiles.resize(leaves.size());
-  bool all_outside = true;
-  for (int bz = 0; bz < nb_z; ++bz)
-    for (int by = 0; by < nb_y; ++by)
-      for (int bx = 0; bx < nb_x; ++bx) {
-        const Coord origin(fx + bx * L, fy + by * L, fz + bz * L);
-        const size_t b = size_t(bx) + size_t(nb_x) * (size_t(by) + size_t(nb_y) * size_t(bz));
-        leaves[b] = acc.probeLeaf(origin);
-        tiles[b] = leaves[b] ? 0.f : acc.getValue(origin);
-        all_outside = all_outside && !leaves[b] && !(tiles[b] < bg);
-      }
-  if (all_outside) return stats;  // the tool is nowhere near this tissue
+  // Blocks are probed when a row first reaches them (NaN tile: not yet): a head's box holds
+  // far more blocks than its spans touch, and a probe costs about what a voxel row does.
+  // (Within capacity: the buffers grow to the largest patch, then are reused.)
+  leaves.assign(size_t(nb_x) * nb_y * nb_z, nullptr);
+  tiles.assign(leaves.size(), std::numeric_limits<float>::quiet_NaN());
+  auto probe = [&](size_t b, int x, int y, int z) {
+    if (std::isnan(tiles[b])) {
+      const Coord origin(x & ~(L - 1), y & ~(L - 1), z & ~(L - 1));
+      leaves[b] = acc.probeLeaf(origin);
+      tiles[b] = leaves[b] ? 0.f : acc.getValue(origin);
+    }
+  };
   for (int k = 0; k < int(dims[2]); ++k)
     for (int j = 0; j < int(dims[1]); ++j) {
       const size_t r = size_t(j) + size_t(dims[1]) * size_t(k);
@@ -114,6 +116,7 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
         const int x = index_min[0] + xs;
         const int xe = std::min(s1, xs + (L - (x & (L - 1))));  // end of this leaf block's part
         const size_t b = row_blocks + size_t((x - fx) / L);
+        probe(b, x, y, z);
         Leaf* leaf = leaves[b];
         const float tile = tiles[b];
         const size_t row = box.index(xs, j, k);
@@ -123,16 +126,17 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
         float* weight_row = weights + row;
         xs = xe;
         if (!leaf && !(tile < bg)) {
-          for (int i = 0; i < n; ++i) old_row[i] = tile;
+          if (measured)
+            for (int i = 0; i < n; ++i) old_row[i] = tile;
           continue;
         }
         const float* src = leaf ? leaf->buffer().data() + (((x & (L - 1)) << 2 * LOG2) | yz) : &tile;
         ptrdiff_t stride = leaf ? L * L : 0;
         for (int i = 0; i < n; ++i) {
           const float t = t_row[i] + offset;
-          if (!(t < reach)) continue;  // unread; pass 2 knows it from the tool
+          if (!(t < read_limit)) continue;  // unread; pass 2 knows it from the tool
           const float old = src[i * stride];
-          old_row[i] = old;
+          if (measured) old_row[i] = old;
           const float now = -t < bg ? -t : bg;
           const bool cuts = (t < bg) & (now > old);
           if (measured) weight_row[i] = kernels.curvature_weight(cuts ? now : old);
@@ -180,6 +184,7 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
     const int x = index_min[0] + i, y = index_min[1] + j, z = index_min[2] + k;
     if (!box.contains(i, j, k)) return acc.getValue(Coord(x, y, z));
     const size_t b = size_t((x - fx) / L) + size_t(nb_x) * (size_t((y - fy) / L) + size_t(nb_y) * size_t((z - fz) / L));
+    probe(b, x, y, z);
     const Leaf* leaf = leaves[b];
     return leaf ? leaf->buffer().data()[Leaf::coordToOffset(Coord(x, y, z))] : tiles[b];
   };
@@ -267,9 +272,27 @@ void LevelSet::mark_material_blocks(std::array<int32_t, 3> index_min, std::array
   for (int bz = 0; bz < count[2]; ++bz)
     for (int by = 0; by < count[1]; ++by)
       for (int bx = 0; bx < count[0]; ++bx, ++b) {
+        if (out[b] == 2) continue;  // another grid's material: nothing to add
         const Coord origin(first[0] + bx * L, first[1] + by * L, first[2] + bz * L);
-        // As the cut reads it: an outside tile cannot change.
-        if (acc.probeConstLeaf(origin) || acc.getValue(origin) < bg) out[b] = 1;
+        // A cut's new values are at most the background: a block whose every voxel is there
+        // already (an outside tile, or a leaf a cut left all outside: 1) cannot change; one with
+        // a voxel below it (an inside tile, a leaf with an active voxel or an inside one) is 2.
+        // An empty leaf is read (an inside one stops at its first voxel).
+        uint8_t mark = 0;
+        if (const auto* leaf = acc.probeConstLeaf(origin)) {
+          bool below = !leaf->isEmpty();
+          const float* v = leaf->buffer().data();
+          // 64 at a time without a branch (vectorised); a cut-clear leaf is read whole.
+          for (openvdb::Index i = 0; !below && i < FloatTree::LeafNodeType::SIZE; i += 64) {
+            int any = 0;
+            for (openvdb::Index j = 0; j < 64; ++j) any |= int(v[i + j] < bg);
+            below = any != 0;
+          }
+          mark = below ? 2 : 1;
+        } else if (acc.getValue(origin) < bg) {
+          mark = 2;
+        }
+        out[b] = std::max(out[b], mark);
       }
 }
 

@@ -344,8 +344,11 @@ impl LevelSet {
         self.inner.last_new_values(&mut out[start..]);
     }
 
-    /// Marks (sets to 1) in `out` each leaf-aligned 8³ block overlapping the index box that holds
-    /// a leaf or an inside tile: where a cut could change anything (an outside tile cannot).
+    /// Marks in `out` each leaf-aligned 8³ block overlapping the index box that holds a voxel
+    /// below the background (an inside tile, or a leaf with such a voxel) with 2: where a cut
+    /// could change anything. A cut sets no voxel above the background, so a block all at it
+    /// cannot change: an outside tile is left as it is in `out`, a leaf a cut left all at the
+    /// background raises its block to at least 1. Blocks keep the largest mark any grid gives.
     /// Blocks are counted from the one holding `index_min`, x fastest ([`block_counts`]).
     pub fn mark_material_blocks(&self, index_min: IVec3, dims: [u32; 3], out: &mut [u8]) -> Result<()> {
         self.inner.mark_material_blocks(index_min.to_array(), dims, out).map_err(openvdb("mark material blocks"))

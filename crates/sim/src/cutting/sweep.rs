@@ -76,14 +76,17 @@ pub struct Sweep {
     /// Index box of the patch (inclusive).
     pub lo: IVec3,
     pub hi: IVec3,
-    /// Which leaf-aligned 8³ blocks of the box hold material (see [`Sweep::build_in`]), and per
-    /// row of blocks the x range (voxel index, inclusive) from the first such block to the last.
+    /// Which leaf-aligned 8³ blocks of the box hold material (see [`Sweep::build_in`]: 2, or 1
+    /// for a leaf all at the background), and per row of blocks the x range (voxel index,
+    /// inclusive) from the first such block to the last.
     material: Vec<u8>,
     material_rows: Vec<(i32, i32)>,
     rows: RowScratch,
     /// Evaluates every row the general way, bounded by the head's one cylinder, without the
     /// one-pose fast path and the slabs; the tests pin those to it.
     exhaustive: bool,
+    /// The cut-off (f32 bits) that every value of the patch outside its spans holds, once built.
+    spans_only: Option<u32>,
 }
 
 /// One row run's distances for a non-round head (see [`Sweep::build_in`]), voxel by voxel.
@@ -160,16 +163,19 @@ impl Sweep {
     /// first sub-pose's, which the sweep evaluates anyway.
     pub fn build_skipping(&mut self, burr: &Burr, from: DAffine3, to: DAffine3, voxel: f64, band: f64, done: Option<Done>) -> Result<()> {
         self.build_in(burr, from, to, voxel, band, done, |_, _, blocks| {
-            blocks.fill(1);
+            blocks.fill(2);
             Ok(())
         })
     }
 
     /// [`build_skipping`](Self::build_skipping) where only blocks that `mark_material(box min,
-    /// box dims, blocks)` sets to 1 can change (blocks as [`block_counts`] counts them): the
+    /// box dims, blocks)` sets to 2 can change (blocks as [`block_counts`] counts them): the
     /// others take the cut-off without an evaluation. A cut changes nothing in a block where every
-    /// grid is an outside tile, so marking the blocks with material in any grid leaves the cut
-    /// exact, and a head mostly in the air costs what its part in the tissue costs.
+    /// grid's voxels are at the background (see `LevelSet::mark_material_blocks`), so marking the
+    /// blocks with material in any grid leaves the cut exact, and a head mostly in the air costs
+    /// what its part in the tissue costs. A round burr's rows also take in the blocks marked 1
+    /// (leaves a cut left clear): its distances depend, to f32 rounding, on where a row's run
+    /// starts, and that start stays where it always was.
     #[allow(clippy::too_many_arguments)]
     pub fn build_in(
         &mut self,
@@ -236,14 +242,27 @@ impl Sweep {
         self.lo = lo;
         self.hi = hi;
         let patch = &mut self.patch;
-        patch.index_min = lo;
-        patch.dims = dims.to_array();
         let total = dims.x as usize * dims.y as usize * dims.z as usize;
         if total > MAX_PATCH_VOXELS {
             return Err(invalid("stroke", format!("would touch {total} voxels (> {MAX_PATCH_VOXELS}); the poses are too far apart, split the stroke")));
         }
-        patch.values.clear();
-        patch.values.resize(total, cutoff as f32);
+        // Every value is the cut-off: only the last build's spans hold others (every value a build
+        // writes is at most the cut-off, and a span runs from a row's first value below it to its
+        // last), so those are put back rather than the whole box filled again.
+        let cutoff32 = cutoff as f32;
+        let [px, py, pz] = patch.dims.map(|d| d as usize);
+        if self.spans_only == Some(cutoff32.to_bits()) && patch.values.len() == px * py * pz && patch.spans.len() == 2 * py * pz {
+            for (row, span) in patch.spans.chunks_exact(2).enumerate() {
+                patch.values[row * px + span[0] as usize..row * px + span[1] as usize].fill(cutoff32);
+            }
+            patch.values.truncate(total);
+        } else {
+            patch.values.clear();
+        }
+        patch.values.resize(total, cutoff32);
+        self.spans_only = Some(cutoff32.to_bits());
+        patch.index_min = lo;
+        patch.dims = dims.to_array();
         patch.spans.clear();
         patch.spans.resize(2 * dims.y as usize * dims.z as usize, 0);
         let (first_block, blocks) = block_counts(lo, patch.dims);
@@ -251,8 +270,9 @@ impl Sweep {
         self.material.resize(blocks.iter().product(), 0);
         mark_material(lo, patch.dims, &mut self.material)?;
         self.material_rows.clear();
+        let least = if burr.ball_radius().is_some() { 1 } else { 2 };
         for row in self.material.chunks_exact(blocks[0]) {
-            let range = match (row.iter().position(|m| *m != 0), row.iter().rposition(|m| *m != 0)) {
+            let range = match (row.iter().position(|m| *m >= least), row.iter().rposition(|m| *m >= least)) {
                 (Some(a), Some(b)) => (first_block.x + a as i32 * LEAF_DIM, first_block.x + b as i32 * LEAF_DIM + LEAF_DIM - 1),
                 _ => (1, 0),
             };
@@ -855,6 +875,42 @@ mod tests {
                 cut += usize::from(f.values.iter().any(|v| *v < cutoff));
             }
             assert!(one_pose >= 8 && cut == 16, "{spec}: {one_pose} one-pose strokes, {cut} that cut");
+        }
+    }
+
+    /// A sweep reused from stroke to stroke (which puts back only the last spans) gives the
+    /// patch a fresh one gives, bit for bit: boxes of every size, round burrs and heads, and a
+    /// stroke refused in between.
+    #[test]
+    fn a_reused_sweep_builds_what_a_fresh_one_builds() {
+        let mut seed = 0x1234_5678_9abc_def1u64;
+        let mut unit = move || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut reused = Sweep::default();
+        for (case, spec) in ["flame_016", "round:1", "cylinder_flat_012", "round:0.6", "taper_flat_012", "pear_010"].iter().cycle().take(30).enumerate() {
+            let burr = Burr::parse(spec).unwrap();
+            // (A new band, a new cut-off: the whole box is filled again.)
+            let band = [0.15, 0.1][case / 12 % 2];
+            let tilt = DQuat::from_axis_angle(DVec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5).normalize_or(DVec3::Z), 3.0 * unit());
+            let from = DAffine3::from_rotation_translation(tilt, DVec3::new(unit(), unit(), unit()) - 0.5);
+            let to = DAffine3::from_rotation_translation(tilt, from.translation + DVec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5) * 0.4 * unit());
+            let done = Some(Done::Head(CutHead { to_tool: from.inverse(), offset: 0.0 })).filter(|_| burr.ball_radius().is_none());
+            if case % 7 == 6 {
+                // Refused for its box, after the last patch was built.
+                let far = DAffine3::from_rotation_translation(tilt, from.translation + DVec3::splat(60.0));
+                assert!(reused.build_skipping(&burr, from, far, 0.05, band, None).unwrap_err().to_string().contains("would touch"));
+            }
+            reused.build_skipping(&burr, from, to, 0.05, band, done).unwrap();
+            let mut fresh = Sweep::default();
+            fresh.build_skipping(&burr, from, to, 0.05, band, done).unwrap();
+            let (a, b) = (&reused.patch, &fresh.patch);
+            assert_eq!((a.index_min, a.dims, &a.spans), (b.index_min, b.dims, &b.spans), "case {case} {spec}");
+            assert!(a.values.iter().zip(&b.values).all(|(x, y)| x.to_bits() == y.to_bits()), "case {case} {spec}: values differ");
+            assert_eq!(a.values.len(), b.values.len());
         }
     }
 

@@ -1,0 +1,120 @@
+//! What the cut leaves out changes no grid: the sweep skips the blocks no grid can lose anything
+//! in (outside tiles, and leaves a cut left all at the background, which the old rule took in),
+//! and an unmeasured subtract reads no voxel past the band. Haptic-tick paths of every burr family (passes and plunges,
+//! tilted heads) through three nested tissues, cut both ways, must leave every grid bit for bit
+//! the same, with the same changes and (measured) the same removed volume to the bit.
+use dentsim_sim::burr::{Burr, Shape};
+use dentsim_sim::cutting::sweep::{CutBall, CutHead, Done, Sweep};
+use dentsim_sim::tissues::model::TissueModel;
+use dentsim_sim::tissues::table::TissueTable;
+use dentsim_vdb::{LevelSet, Measure};
+use glam::{DAffine3, DQuat, DVec3, IVec3};
+
+const H: f64 = 0.05;
+
+/// Enamel, dentin and pulp as nested balls, made ready for cutting as a session makes them.
+fn model() -> TissueModel {
+    let mut m = TissueModel::new("nested balls", None);
+    let table = TissueTable::default();
+    for (name, r) in [("enamel", 1.6), ("dentin", 1.1), ("pulp", 0.45)] {
+        let grid = LevelSet::from_sdf(H, 3.0, DVec3::splat(-r - 0.3), DVec3::splat(r + 0.3), |p| p.length() - r).unwrap();
+        m.push(table.get(name).unwrap().clone(), grid).unwrap();
+    }
+    m.voxelize_for_cutting().unwrap();
+    m
+}
+
+fn dense(model: &TissueModel, t: usize) -> Vec<f32> {
+    let lo = IVec3::splat(-44);
+    let dims = [89u32; 3];
+    let mut v = vec![0f32; 89 * 89 * 89];
+    model.tissues[t].grid.read_dense(lo, dims, &mut v).unwrap();
+    v
+}
+
+#[test]
+fn skipped_blocks_and_unread_voxels_change_no_grid() {
+    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+    let mut unit = move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let band = 3.0 * H;
+    let cutoff = (band + 1.5 * H) as f32;
+    let (mut skipped_blocks, mut ticks) = (0usize, 0usize);
+    for shape in Shape::ALL {
+        let d = 0.8 + 0.6 * unit();
+        let len = match shape {
+            Shape::Wheel => 0.4 * d,
+            Shape::Round => d,
+            _ => (1.5 * d).max(1.0),
+        };
+        let burr = Burr::new(shape, d, Some(len)).unwrap();
+        let (mut skipping, mut reference, mut unmeasured) = (model(), model(), model());
+        let (mut marked, mut every) = (Sweep::default(), Sweep::default());
+        let mut log = Vec::new();
+        // A tilted head entering the enamel from above, a pass across, a plunge along its axis,
+        // another pass; 0.02 mm a tick (20 mm/s at 1 kHz), a slight turn on some ticks.
+        let axis = DVec3::new(unit() - 0.5, unit() - 0.5, 2.0).normalize();
+        let tilt = DQuat::from_rotation_arc(DVec3::Z, axis);
+        let across = axis.any_orthonormal_vector();
+        let mut pose = DAffine3::from_rotation_translation(tilt, axis * 1.2 - across * 0.5);
+        let mut done: Option<Done> = None;
+        for tick in 0..90 {
+            let (step, turn) = match tick {
+                0..=29 => (across * 0.02 - axis * 0.01, 0.0),
+                30..=59 => (-axis * 0.02, 0.0),
+                _ => (-across * 0.02, if tick % 7 == 0 { 0.01 } else { 0.0 }),
+            };
+            let rotation = DQuat::from_axis_angle(axis, turn) * DQuat::from_mat3(&pose.matrix3);
+            let next = DAffine3::from_rotation_translation(rotation, pose.translation + step);
+            let grids = &skipping.tissues;
+            marked
+                .build_in(&burr, pose, next, H, band, done, |lo, dims, blocks| {
+                    grids.iter().try_for_each(|t| t.grid.mark_material_blocks(lo, dims, blocks).map_err(Into::into))
+                })
+                .unwrap();
+            // The old rule: every block with a leaf or an inside tile in some grid.
+            let grids = &reference.tissues;
+            every
+                .build_in(&burr, pose, next, H, band, done, |lo, dims, blocks| {
+                    grids.iter().try_for_each(|t| t.grid.mark_material_blocks(lo, dims, blocks))?;
+                    blocks.iter_mut().filter(|m| **m != 0).for_each(|m| *m = 2);
+                    Ok(())
+                })
+                .unwrap();
+            let handed = |s: &Sweep| s.patch.values.iter().filter(|v| **v < cutoff).count();
+            skipped_blocks += usize::from(handed(&marked) < handed(&every));
+            ticks += 1;
+            for t in 0..3 {
+                let a = skipping.tissues[t].grid.subtract_logged(&marked.patch, 0.0, Measure::Volume, &mut log).unwrap();
+                let b = reference.tissues[t].grid.subtract_logged(&every.patch, 0.0, Measure::Volume, &mut log).unwrap();
+                let c = unmeasured.tissues[t].grid.subtract_logged(&marked.patch, 0.0, Measure::Skip, &mut log).unwrap();
+                assert_eq!(a.changed_voxels, b.changed_voxels, "{shape:?} tick {tick} tissue {t}: changed voxels");
+                assert_eq!(a.changed_voxels, c.changed_voxels, "{shape:?} tick {tick} tissue {t}: changed voxels unmeasured");
+                assert_eq!(a.removed_mm3.to_bits(), b.removed_mm3.to_bits(), "{shape:?} tick {tick} tissue {t}: removed volume");
+            }
+            done = Some(match burr.ball_radius() {
+                Some(r) => Done::Ball(CutBall { centre: next.transform_point3(DVec3::new(0.0, 0.0, r)), radius: r }),
+                None => Done::Head(CutHead { to_tool: next.inverse(), offset: 0.0 }),
+            });
+            pose = next;
+        }
+        for t in 0..3 {
+            let (a, b, c) = (dense(&skipping, t), dense(&reference, t), dense(&unmeasured, t));
+            for (n, ((x, y), z)) in a.iter().zip(&b).zip(&c).enumerate() {
+                assert_eq!(x.to_bits(), y.to_bits(), "{shape:?} tissue {t} voxel {n}: {x} vs {y}");
+                assert_eq!(x.to_bits(), z.to_bits(), "{shape:?} tissue {t} voxel {n}: {x} vs {z} unmeasured");
+            }
+            let hash = |m: &TissueModel| m.tissues[t].grid.content_hash();
+            assert_eq!(hash(&skipping), hash(&reference), "{shape:?} tissue {t}: grids differ");
+            assert_eq!(hash(&skipping), hash(&unmeasured), "{shape:?} tissue {t}: grids differ unmeasured");
+        }
+        // The path cut something in every tissue it reached.
+        assert!(dense(&skipping, 0) != dense(&model(), 0), "{shape:?}: nothing cut");
+    }
+    // The skip was taken: some ticks handed the subtract fewer voxels than the old rule did.
+    assert!(skipped_blocks * 10 >= ticks, "{skipped_blocks} of {ticks} ticks skipped a block");
+}
