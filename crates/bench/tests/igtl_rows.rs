@@ -12,8 +12,8 @@ fn igtl_round_trip_rows_measure_both_sides() {
     assert_eq!(rows.iter().map(|r| r.name.as_str()).collect::<Vec<_>>(), ["igtl_round_trip", "loop_period_igtl"]);
     let rt = &rows[0];
     assert!(rt.ours_median_us > 0.0 && rt.ours_p99_us >= rt.ours_median_us && rt.peer_median_us > 0.0 && rt.ratio.is_finite());
-    // The loop's peer is the empty loop's periods, as many as the session's.
+    // Beside its goal, the loop row gives the empty loop's periods (the machine's floor).
     let lp = &rows[1];
-    assert!(lp.ours_median_us > 0.0 && lp.peer_median_us > 0.0 && lp.ours_p999_us.is_some_and(|p| p >= lp.ours_p99_us));
-    assert!(lp.peer.starts_with("empty 1 kHz loop"), "{}", lp.peer);
+    assert!(lp.ours_median_us > 0.0 && lp.ours_p999_us.is_some_and(|p| p >= lp.ours_p99_us));
+    assert!(lp.peer.contains("empty 1 kHz loop") && lp.peer.contains("p99.9"), "{}", lp.peer);
 }

@@ -876,8 +876,10 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     let bone_near = {
         let not_bone: Vec<bool> = (0..bn).map(|l| filled[l] || !matches!(Label::from_u8(out.labels[bx.global(l)]), Some(Label::BoneCancellous | Label::BoneCortical))).collect();
         let depth = distance_mm(bx.g.d, vol.spacing, &not_bone);
-        let bulk: Vec<bool> = depth.iter().map(|&d| f64::from(d) >= BONE_DEPTH_MM).collect();
-        let reach = BONE_DEPTH_MM + 2.0 * vol.spacing.iter().cloned().fold(0.0, f64::max);
+        // (A micron's slack: spacings read from files differ in their last float bits, and
+        // both lengths are whole multiples of common voxel sizes.)
+        let bulk: Vec<bool> = depth.iter().map(|&d| f64::from(d) >= BONE_DEPTH_MM - 1e-3).collect();
+        let reach = BONE_DEPTH_MM + 2.0 * vol.spacing.iter().cloned().fold(0.0, f64::max) + 1e-3;
         within(&bx.g, &bulk, reach, vol.spacing)
     };
     let decisions: Vec<(usize, Option<Label>)> = ring
