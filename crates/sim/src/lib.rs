@@ -21,6 +21,17 @@ pub mod session;
 pub mod tissues;
 
 /// The devices crate, for the faces (CLI, plugin) that name a device profile or tool path.
+/// Uniform numbers in [0, 1) from a fixed seed (xorshift64): tests' random cases, the same every run.
+#[cfg(test)]
+pub(crate) fn unit_random(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 pub use dentsim_devices as devices;
 pub use error::{Error, Result};
 pub use limits::Limits;

@@ -3,6 +3,8 @@
 //! and an unmeasured subtract reads no voxel past the band. Haptic-tick paths of every burr family (passes and plunges,
 //! tilted heads) through three nested tissues, cut both ways, must leave every grid bit for bit
 //! the same, with the same changes and (measured) the same removed volume to the bit.
+mod common;
+
 use dentsim_sim::burr::{Burr, Shape};
 use dentsim_sim::cutting::sweep::{CutBall, CutHead, Done, Sweep};
 use dentsim_sim::tissues::model::TissueModel;
@@ -34,13 +36,7 @@ fn dense(model: &TissueModel, t: usize) -> Vec<f32> {
 
 #[test]
 fn skipped_blocks_and_unread_voxels_change_no_grid() {
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let mut unit = move || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut unit = common::unit_random(0x9e37_79b9_7f4a_7c15);
     let band = 3.0 * H;
     let cutoff = (band + 1.5 * H) as f32;
     let (mut skipped_blocks, mut ticks) = (0usize, 0usize);

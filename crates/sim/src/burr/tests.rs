@@ -202,13 +202,8 @@ fn every_head_is_convex_and_its_facing_heights_hold() {
 /// head (to f32 rounding of coordinates of a few mm).
 #[test]
 fn rows_of_distances_match_the_pointwise_distance() {
-    let mut seed = 0x9e37_79b9_7f4a_7c15u64;
-    let mut unit = || {
-        seed ^= seed << 13;
-        seed ^= seed >> 7;
-        seed ^= seed << 17;
-        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
+    let mut next = crate::unit_random(0x9e37_79b9_7f4a_7c15);
+    let mut unit = || next() * 2.0 - 1.0;
     let mut out = vec![0f32; 77];
     for burr in every_burr() {
         for _ in 0..200 {

@@ -839,13 +839,7 @@ mod tests {
     /// evaluated) and longer ones (several), any direction, any tilt.
     #[test]
     fn the_fast_sweep_matches_the_general_sweep_bit_for_bit() {
-        let mut seed = 0x2545_f491_4f6c_dd1du64;
-        let mut unit = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut unit = crate::unit_random(0x2545_f491_4f6c_dd1du64);
         let (voxel, band) = (0.05, 0.15);
         let cutoff = (band + 1.5 * voxel) as f32;
         let specs = ["cylinder_flat_012", "cylinder_round_012", "taper_flat_012", "taper_round_014", "inverted_cone_010", "flame_016", "pear_010", "needle_012", "xmas_016", "wheel_025"];
@@ -883,13 +877,7 @@ mod tests {
     /// stroke refused in between.
     #[test]
     fn a_reused_sweep_builds_what_a_fresh_one_builds() {
-        let mut seed = 0x1234_5678_9abc_def1u64;
-        let mut unit = move || {
-            seed ^= seed << 13;
-            seed ^= seed >> 7;
-            seed ^= seed << 17;
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut unit = crate::unit_random(0x1234_5678_9abc_def1u64);
         let mut reused = Sweep::default();
         for (case, spec) in ["flame_016", "round:1", "cylinder_flat_012", "round:0.6", "taper_flat_012", "pear_010"].iter().cycle().take(30).enumerate() {
             let burr = Burr::parse(spec).unwrap();

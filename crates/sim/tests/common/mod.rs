@@ -10,6 +10,16 @@ use glam::{DAffine3, DVec3};
 
 pub const VOXEL: f64 = 0.05;
 
+/// Uniform numbers in [0, 1) from a fixed seed (xorshift64): random cases, the same every run.
+pub fn unit_random(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// Exact signed distance of an axis-aligned box.
 pub fn box_sdf(p: DVec3, lo: DVec3, hi: DVec3) -> f64 {
     let c = (lo + hi) / 2.0;
