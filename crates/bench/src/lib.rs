@@ -20,7 +20,7 @@ use dentsim_sim::tissues::surface::Mesher;
 use dentsim_sim::cutting::removal::Feed;
 use dentsim_sim::error::Result;
 use dentsim_sim::tissues::model::TissueModel;
-use dentsim_sim::session::threads::{idle_loop_periods_us, run_session, SessionOptions, DEFAULT_MESHER_HZ};
+use dentsim_sim::session::threads::{idle_loop_starts_s, run_session, SessionOptions, DEFAULT_MESHER_HZ};
 use dentsim_sim::tissues::table::TissueTable;
 
 #[derive(Clone, Debug, Serialize, serde::Deserialize)]
@@ -432,7 +432,8 @@ pub fn guidance_clearance(tooth: &BenchTooth, iterations: usize) -> Result<Bench
 /// interrupts), so a missed p99.9 reads as ours or the machine's. Its figures stand in the
 /// row's text; the peer columns stay empty, as a ratio of two medians of 1000 µs says nothing.
 pub fn deadline_row(name: &str, periods: &Timings, raise_priority: bool, goal: &str) -> Result<BenchRow> {
-    let floor = Timings(idle_loop_periods_us(periods.0.len(), 1e-3, raise_priority)?);
+    let starts = idle_loop_starts_s(periods.0.len(), 1e-3, raise_priority)?;
+    let floor = Timings(starts.windows(2).map(|w| (w[1] - w[0]) * 1e6).collect());
     let text = format!(
         "{goal}; empty 1 kHz loop, same priority and wait, run just after: p50 {:.1}, p99 {:.1}, p99.9 {:.1} us",
         floor.median(),

@@ -149,17 +149,18 @@ fn a_mesher_short_of_queue_room_cuts_the_overflow_again() {
 }
 
 #[test]
-fn the_empty_loop_gives_one_period_per_tick_and_refuses_a_bad_period() {
-    use dentsim_sim::session::threads::idle_loop_periods_us;
-    let periods = idle_loop_periods_us(50, 1e-3, false).unwrap();
-    assert_eq!(periods.len(), 50);
-    // Ticks wait for absolute deadlines, so no two starts can be closer than zero apart and
-    // together they span at least the 49 deadlines after the first.
-    assert!(periods.iter().all(|p| *p >= 0.0));
-    let span: f64 = periods.iter().skip(1).sum();
-    assert!(span >= 48.0 * 1e3 - 1e-6, "{span}");
+fn the_empty_loop_starts_each_tick_at_or_after_its_deadline_and_refuses_a_bad_period() {
+    use dentsim_sim::session::threads::idle_loop_starts_s;
+    let starts = idle_loop_starts_s(50, 1e-3, false).unwrap();
+    assert_eq!(starts.len(), 51);
+    // The wait never returns before its deadline (absolute, from the loop's start): late is the
+    // machine's, early would be a bug.
+    for (k, t) in starts.iter().enumerate() {
+        // (A nanosecond's slack: the deadline is a Duration, rounded to whole nanoseconds.)
+        assert!(*t >= k as f64 * 1e-3 - 1e-9, "tick {k} started at {t} s");
+    }
     for bad in [0.0, -1e-3, f64::NAN] {
-        let e = idle_loop_periods_us(5, bad, false).unwrap_err().to_string();
+        let e = idle_loop_starts_s(5, bad, false).unwrap_err().to_string();
         assert!(e.contains("period_s"), "{e}");
     }
 }

@@ -13,4 +13,4 @@ pub use live::{LiveRequest, LiveSession, LiveState};
 pub use log::{SessionLog, TickRecord};
 pub use outputs::{replay_to_dir, replay_to_dir_with, run_session_to_dir, run_session_to_dir_with, SessionRequest};
 pub use replay::{replay, ReplayOutcome};
-pub use threads::{idle_loop_periods_us, run_session, Session, SessionOptions, SessionOutcome, DEFAULT_MESHER_HZ, QUEUE_CHANGES};
+pub use threads::{idle_loop_starts_s, run_session, Session, SessionOptions, SessionOutcome, DEFAULT_MESHER_HZ, QUEUE_CHANGES};

@@ -452,10 +452,10 @@ fn wait_until(deadline: Instant) {
     }
 }
 
-/// Tick-start intervals (µs) of an empty loop: the haptic thread's priority and wait with no work
-/// and no other thread of ours, for `ticks` ticks of `period_s`. The floor the machine itself sets
-/// under a session's periods (the peer of `dentsim bench`'s loop rows).
-pub fn idle_loop_periods_us(ticks: usize, period_s: f64, raise: bool) -> Result<Vec<f64>> {
+/// Tick starts (s from the loop's start) of an empty loop: the haptic thread's priority and wait
+/// with no work and no other thread of ours, ticks 0..=`ticks` of `period_s`. Their intervals are
+/// the floor the machine itself sets under a session's periods (`dentsim bench`'s loop rows).
+pub fn idle_loop_starts_s(ticks: usize, period_s: f64, raise: bool) -> Result<Vec<f64>> {
     if !(period_s.is_finite() && period_s > 0.0) {
         return Err(invalid("idle loop period_s", format!("{period_s}, expected > 0")));
     }
@@ -463,18 +463,13 @@ pub fn idle_loop_periods_us(ticks: usize, period_s: f64, raise: bool) -> Result<
         if raise {
             raise_priority(HAPTIC_FIFO, HAPTIC_NICE);
         }
-        let mut periods = Vec::with_capacity(ticks);
+        let mut starts = Vec::with_capacity(ticks + 1);
         let start = Instant::now();
-        let mut last: Option<f64> = None;
         for tick in 0..=ticks {
             wait_until(start + Duration::from_secs_f64(tick as f64 * period_s));
-            let wall = start.elapsed().as_secs_f64();
-            if let Some(prev) = last {
-                periods.push((wall - prev) * 1e6);
-            }
-            last = Some(wall);
+            starts.push(start.elapsed().as_secs_f64());
         }
-        periods
+        starts
     };
     let thread = std::thread::Builder::new().name("dentsim-idle-loop".into()).spawn(run).map_err(|e| invalid("idle loop thread", e.to_string()))?;
     thread.join().map_err(|_| invalid("idle loop thread", "panicked"))
