@@ -56,8 +56,7 @@ impl GridField<'_> {
             let x = u[c].clamp(0.0, (self.dims[c] - 1) as f64);
             let i = x.floor();
             let t = x - i;
-            let s = 1.0 - t;
-            w[c] = [s * s * s / 6.0, (3.0 * t * t * t - 6.0 * t * t + 4.0) / 6.0, (-3.0 * t * t * t + 3.0 * t * t + 3.0 * t + 1.0) / 6.0, t * t * t / 6.0];
+            w[c] = cubic_weights(t);
             interior &= i >= 1.0 && (i as usize) + 2 < self.dims[c];
             base[c] = (i as usize).saturating_sub(1);
         }
@@ -91,7 +90,7 @@ impl GridField<'_> {
             let t = x - i;
             base[c] = i as i64 - 1;
             let s = 1.0 - t;
-            w[c] = [s * s * s / 6.0, (3.0 * t * t * t - 6.0 * t * t + 4.0) / 6.0, (-3.0 * t * t * t + 3.0 * t * t + 3.0 * t + 1.0) / 6.0, t * t * t / 6.0];
+            w[c] = cubic_weights(t);
             d[c] = [-0.5 * s * s, 0.5 * (3.0 * t * t - 4.0 * t), 0.5 * (-3.0 * t * t + 2.0 * t + 1.0), 0.5 * t * t];
         }
         let index = |c: usize, o: usize| (base[c] + o as i64).clamp(0, self.dims[c] as i64 - 1) as usize;
@@ -117,6 +116,56 @@ impl GridField<'_> {
             g += DVec3::new(w[2][c] * gx_yz, w[2][c] * gy_yz, d[2][c] * v_yz);
         }
         (value, g)
+    }
+
+    /// The spline's value at the leaf's voxels in `wanted` (voxel `n` at index `(u[0][n >> 6],
+    /// u[1][(n >> 3) & 7], u[2][n & 7])`), written to `out[n]`. Separable: sums along x for
+    /// every coefficient row the leaf reaches, then along y, then z, each in [`Self::value`]'s
+    /// order, so every value is the same to the bit.
+    fn bspline_block(&self, u: &[[f64; 8]; 3], wanted: &VoxelMask, out: &mut [f32]) {
+        let taps: [[([usize; 4], [f64; 4]); 8]; 3] = std::array::from_fn(|c| {
+            std::array::from_fn(|i| {
+                let x = u[c][i].clamp(0.0, (self.dims[c] - 1) as f64);
+                let first = x.floor();
+                let index = std::array::from_fn(|o| (first as i64 - 1 + o as i64).clamp(0, self.dims[c] as i64 - 1) as usize);
+                (index, cubic_weights(x - first))
+            })
+        });
+        let span = |c: usize| {
+            let lo = taps[c].iter().map(|t| t.0[0]).min().unwrap_or(0);
+            (lo, taps[c].iter().map(|t| t.0[3]).max().unwrap_or(0) + 1 - lo)
+        };
+        let ((jlo, jn), (klo, kn)) = (span(1), span(2));
+        let mut lines = vec![0f64; jn * kn];
+        let mut planes = vec![0f64; kn];
+        for (x, &slice) in wanted.0.iter().enumerate() {
+            if slice == 0 {
+                continue;
+            }
+            let (ix, wx) = &taps[0][x];
+            for k in 0..kn {
+                for j in 0..jn {
+                    lines[k * jn + j] = ix.iter().zip(wx).map(|(&i, w)| self.at(i, jlo + j, klo + k) * w).sum();
+                }
+            }
+            for y in (0..8).filter(|y| (slice >> (8 * y)) & 0xff != 0) {
+                let (iy, wy) = &taps[1][y];
+                for (k, plane) in planes.iter_mut().enumerate() {
+                    *plane = 0.0;
+                    for (&j, w) in iy.iter().zip(wy) {
+                        *plane += w * lines[k * jn + j - jlo];
+                    }
+                }
+                for z in (0..8).filter(|z| (slice >> (8 * y + z)) & 1 == 1) {
+                    let (iz, wz) = &taps[2][z];
+                    let mut value = 0.0;
+                    for (&k, w) in iz.iter().zip(wz) {
+                        value += w * planes[k - klo];
+                    }
+                    out[(x << 6) | (y << 3) | z] = value as f32;
+                }
+            }
+        }
     }
 
     /// Trilinear value and gradient (per index unit) at a continuous index; outside the grid
@@ -154,6 +203,12 @@ impl GridField<'_> {
         let gz = y1 - y0;
         (value, DVec3::new(gx, gy, gz))
     }
+}
+
+/// The cubic B-spline's four weights at fraction `t` of a cell.
+fn cubic_weights(t: f64) -> [f64; 4] {
+    let s = 1.0 - t;
+    [s * s * s / 6.0, (3.0 * t * t * t - 6.0 * t * t + 4.0) / 6.0, (-3.0 * t * t * t + 3.0 * t * t + 3.0 * t + 1.0) / 6.0, t * t * t / 6.0]
 }
 
 /// How the field is reconstructed between its samples.
@@ -288,15 +343,31 @@ pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32
     // else the field sampled.
     let inside_value = (iso + 1.0) as f32;
     let outside_value = (iso - 1.0) as f32;
+    let cell_of = |v: f64, n: usize| (v.max(0.0) as usize).min(n - 1);
+    // A scan's grid along the level set's axes (no direction cosines) samples the spline per
+    // leaf separably: each axis's index depends on that axis's voxel alone.
+    let axis_aligned = [inverse.x_axis.y, inverse.x_axis.z, inverse.y_axis.x, inverse.y_axis.z, inverse.z_axis.x, inverse.z_axis.y].iter().all(|&v| v == 0.0);
     let values: Vec<Vec<f32>> = leaves
         .par_iter()
         .enumerate()
-        .map(|(l, _)| {
+        .map(|(l, &origin)| {
+            if kernel == Kernel::CubicBSpline && axis_aligned {
+                let u = [0, 1, 2].map(|c| {
+                    std::array::from_fn(|i| {
+                        let mut v = origin;
+                        v[c] += i as i32;
+                        (inverse * (v.as_dvec3() * h - t))[c]
+                    })
+                });
+                let side = |n: usize| cell_side[cell_of(u[0][n >> 6], cx) + cx * (cell_of(u[1][(n >> 3) & 7], cy) + cy * cell_of(u[2][n & 7], cz))];
+                let mut out: Vec<f32> = (0..LEAF_VOXELS).map(|n| if side(n) == 1 { inside_value } else { outside_value }).collect();
+                field.bspline_block(&u, &VoxelMask::of(|n| side(n) == 0), &mut out);
+                return out;
+            }
             (0..LEAF_VOXELS)
                 .map(|n| {
                     let u = inverse * (voxel_of(l, n).as_dvec3() * h - t);
-                    let c = |v: f64, n: usize| (v.max(0.0) as usize).min(n - 1);
-                    match cell_side[c(u.x, cx) + cx * (c(u.y, cy) + cy * c(u.z, cz))] {
+                    match cell_side[cell_of(u.x, cx) + cx * (cell_of(u.y, cy) + cy * cell_of(u.z, cz))] {
                         1 => inside_value,
                         -1 => outside_value,
                         _ => field.value(kernel, u) as f32,
@@ -376,19 +447,27 @@ pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32
     }
 
     // Each voxel takes the nearest of its face neighbours' surface points, sweep after sweep,
-    // until the band is covered (one voxel per sweep).
+    // until the band is covered (one voxel per sweep). Only a voxel next to one that changed in
+    // the last sweep can change in this one (its own choice already beats the rest).
     let sweeps = half_width.ceil() as usize + 1;
-    let mut changed: Vec<bool> = nearest.iter().map(|v| v.iter().any(|&id| id != NONE)).collect();
+    let mut changed: Vec<VoxelMask> = nearest.iter().map(|v| VoxelMask::of(|n| v[n] != NONE)).collect();
     for _ in 0..sweeps {
-        let next: Vec<Option<Vec<u32>>> = (0..leaves.len())
+        let next: Vec<Option<(Vec<u32>, VoxelMask)>> = (0..leaves.len())
             .into_par_iter()
             .map(|l| {
-                if !changed[l] && around[l].iter().all(|&m| m == usize::MAX || !changed[m]) {
+                let mut faces = [VoxelMask::EMPTY; 6];
+                for (slot, face) in faces.iter_mut().enumerate() {
+                    if around[l][slot] != usize::MAX {
+                        *face = changed[around[l][slot]];
+                    }
+                }
+                let due = changed[l].next_to(&faces);
+                if due.is_empty() {
                     return None;
                 }
                 let mut own = nearest[l].clone();
-                let mut any = false;
-                for n in 0..LEAF_VOXELS {
+                let mut moved = VoxelMask::EMPTY;
+                due.for_each(|n| {
                     let p = voxel_of(l, n).as_dvec3() * h;
                     let mut best = if own[n] == NONE { f64::INFINITY } else { feet[own[n] as usize].distance_squared(p) };
                     for axis in 0..3 {
@@ -400,19 +479,19 @@ pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32
                                     if d < best {
                                         best = d;
                                         own[n] = id;
-                                        any = true;
+                                        moved.insert(n);
                                     }
                                 }
                             }
                         }
                     }
-                }
-                any.then_some(own)
+                });
+                (!moved.is_empty()).then_some((own, moved))
             })
             .collect();
-        changed = next.iter().map(Option::is_some).collect();
+        changed = next.iter().map(|v| v.as_ref().map_or(VoxelMask::EMPTY, |(_, moved)| *moved)).collect();
         for (l, v) in next.into_iter().enumerate() {
-            if let Some(v) = v {
+            if let Some((v, _)) = v {
                 nearest[l] = v;
             }
         }
@@ -441,4 +520,100 @@ pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32
         })
         .collect();
     Ok(LevelSet::from_leaves(voxel_size, half_width, &leaves)?)
+}
+
+/// One bit per voxel of a leaf (bit `n` of voxel `n`, z fastest): a word per x-slice, y in its
+/// byte, z in the byte's bit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct VoxelMask([u64; LEAF_DIM as usize]);
+
+impl VoxelMask {
+    const EMPTY: VoxelMask = VoxelMask([0; LEAF_DIM as usize]);
+    /// Bits of the voxels at z = 0 and at z = 7 of every row.
+    const Z_FIRST: u64 = 0x0101_0101_0101_0101;
+    const Z_LAST: u64 = 0x8080_8080_8080_8080;
+
+    fn of(mut set: impl FnMut(usize) -> bool) -> VoxelMask {
+        let mut mask = VoxelMask::EMPTY;
+        for n in (0..LEAF_VOXELS).filter(|&n| set(n)) {
+            mask.insert(n);
+        }
+        mask
+    }
+
+    fn insert(&mut self, n: usize) {
+        self.0[n >> 6] |= 1 << (n & 63);
+    }
+
+    fn is_empty(&self) -> bool {
+        self.0.iter().all(|&w| w == 0)
+    }
+
+    fn for_each(&self, mut f: impl FnMut(usize)) {
+        for (x, &word) in self.0.iter().enumerate() {
+            let mut w = word;
+            while w != 0 {
+                f((x << 6) | w.trailing_zeros() as usize);
+                w &= w - 1;
+            }
+        }
+    }
+
+    /// The voxels with a face neighbour in this mask, or across a face in `faces` (the masks of
+    /// the leaves at −x, +x, −y, +y, −z, +z).
+    fn next_to(&self, faces: &[VoxelMask; 6]) -> VoxelMask {
+        let c = &self.0;
+        let mut out = [0u64; LEAF_DIM as usize];
+        for (x, word) in out.iter_mut().enumerate() {
+            let w = c[x];
+            let mut d = ((w << 1) & !Self::Z_FIRST) | ((w >> 1) & !Self::Z_LAST) | (w << 8) | (w >> 8);
+            d |= if x > 0 { c[x - 1] } else { faces[0].0[7] };
+            d |= if x < 7 { c[x + 1] } else { faces[1].0[0] };
+            d |= (faces[2].0[x] >> 56) | (faces[3].0[x] << 56);
+            d |= ((faces[4].0[x] & Self::Z_LAST) >> 7) | ((faces[5].0[x] & Self::Z_FIRST) << 7);
+            *word = d;
+        }
+        VoxelMask(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `next_to` against the neighbours counted one by one, on random masks of a leaf and its six
+    /// face neighbours.
+    #[test]
+    fn voxels_next_to_a_mask_are_its_face_neighbours() {
+        let mut random = crate::unit_random(7);
+        let d = LEAF_DIM;
+        for _ in 0..50 {
+            let density = random() * 0.2;
+            let mut bit = || random() < density;
+            let own = VoxelMask::of(|_| bit());
+            let faces = [(); 6].map(|_| VoxelMask::of(|_| bit()));
+            let set = |m: &VoxelMask, v: IVec3| m.0[v.x as usize] >> (v.y * d + v.z) & 1 == 1;
+            let got = own.next_to(&faces);
+            for n in 0..LEAF_VOXELS {
+                let v = IVec3::new((n >> 6) as i32, ((n >> 3) & 7) as i32, (n & 7) as i32);
+                let mut expected = false;
+                for axis in 0..3 {
+                    for (dir, slot) in [(-1, 2 * axis), (1, 2 * axis + 1)] {
+                        let mut q = v;
+                        q[axis] += dir;
+                        expected |= if (0..d).contains(&q[axis]) {
+                            set(&own, q)
+                        } else {
+                            q[axis] = q[axis].rem_euclid(d);
+                            set(&faces[slot], q)
+                        };
+                    }
+                }
+                assert_eq!(set(&got, v), expected, "voxel {v}");
+            }
+        }
+        let mut seen = Vec::new();
+        VoxelMask::of(|n| n % 37 == 3).for_each(|n| seen.push(n));
+        assert_eq!(seen, (0..LEAF_VOXELS).filter(|n| n % 37 == 3).collect::<Vec<_>>());
+    }
 }
