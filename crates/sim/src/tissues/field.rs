@@ -44,6 +44,11 @@ impl GridField<'_> {
         }
     }
 
+    /// Trilinear value at a continuous index (outside the grid the border's values continue).
+    pub fn trilinear_at(&self, u: DVec3) -> f64 {
+        self.trilinear(u).0
+    }
+
     /// Value alone at a continuous index under `kernel` (the spline's without its gradient).
     fn value(&self, kernel: Kernel, u: DVec3) -> f64 {
         if kernel == Kernel::Trilinear {

@@ -46,31 +46,8 @@ pub fn run(case: &FamilyCase, voxel_mm: f64) -> Result<CaseResult, String> {
     for label in [Label::Enamel, Label::Dentin, Label::Pulp] {
         let tissue = model.get(label.name()).ok_or_else(|| format!("{}: no {}", case.name, label.name()))?;
         let sdf = |p: DVec3| phantom.tooth_sdf(fdi, label, p).unwrap_or(f64::INFINITY);
-        let mesh = tissue.grid.to_mesh();
-        let step = (mesh.triangles.len() / 20000).max(1);
-        let (mut dist, mut angle, mut n) = (0.0, 0.0, 0usize);
-        for tri in mesh.triangles.iter().step_by(step) {
-            let [a, b, c] = tri.map(|i| mesh.points[i as usize].as_dvec3());
-            let normal = (b - a).cross(c - a);
-            if normal.length() < 1e-12 {
-                continue;
-            }
-            let centre = (a + b + c) / 3.0;
-            let h = 1e-3;
-            let grad = DVec3::new(
-                sdf(centre + DVec3::X * h) - sdf(centre - DVec3::X * h),
-                sdf(centre + DVec3::Y * h) - sdf(centre - DVec3::Y * h),
-                sdf(centre + DVec3::Z * h) - sdf(centre - DVec3::Z * h),
-            );
-            if grad.length() < 1e-9 || !grad.is_finite() {
-                continue;
-            }
-            dist += sdf(centre).abs();
-            angle += normal.normalize().dot(grad.normalize()).clamp(-1.0, 1.0).acos().to_degrees();
-            n += 1;
-        }
-        let n = n.max(1) as f64;
-        tissues.push(TissueError { label, volume_error: tissue.grid.volume() / truth[label as usize] - 1.0, surface_mm: dist / n, normal_deg: angle / n });
+        let (dist, angle) = mesh_errors(&tissue.grid.to_mesh(), sdf);
+        tissues.push(TissueError { label, volume_error: tissue.grid.volume() / truth[label as usize] - 1.0, surface_mm: dist, normal_deg: angle });
     }
     Ok(CaseResult { name: case.name.clone(), tissues, confidence: report.calibration.confidence, seconds: start.elapsed().as_secs_f64() })
 }
@@ -94,22 +71,92 @@ pub fn floor(case: &FamilyCase, voxel_mm: f64) -> Vec<(Label, f64, f64)> {
         .map(|label| {
             let sdf = |p: DVec3| phantom.tooth_sdf(fdi, label, p).unwrap_or(f64::INFINITY);
             let grid = dentsim_vdb::LevelSet::from_sdf(voxel_mm, 3.0, lo, hi, sdf).unwrap();
-            let mesh = grid.to_mesh();
-            let (mut dist, mut angle, mut n) = (0.0, 0.0, 0usize);
-            for tri in mesh.triangles.iter().step_by((mesh.triangles.len() / 20000).max(1)) {
-                let [a, b, c] = tri.map(|i| mesh.points[i as usize].as_dvec3());
-                let normal = (b - a).cross(c - a);
-                let centre = (a + b + c) / 3.0;
-                let h = 1e-3;
-                let grad = DVec3::new(sdf(centre + DVec3::X * h) - sdf(centre - DVec3::X * h), sdf(centre + DVec3::Y * h) - sdf(centre - DVec3::Y * h), sdf(centre + DVec3::Z * h) - sdf(centre - DVec3::Z * h));
-                if normal.length() < 1e-12 || grad.length() < 1e-9 {
-                    continue;
-                }
-                dist += sdf(centre).abs();
-                angle += normal.normalize().dot(grad.normalize()).clamp(-1.0, 1.0).acos().to_degrees();
-                n += 1;
-            }
-            (label, dist / n.max(1) as f64, angle / n.max(1) as f64)
+            let (dist, angle) = mesh_errors(&grid.to_mesh(), sdf);
+            (label, dist, angle)
+        })
+        .collect()
+}
+
+/// Mean |true SDF| (mm) at the triangles' centres and mean angle (degrees) between their normals
+/// and the SDF's gradient, over at most ~20,000 triangles spread over the mesh.
+fn mesh_errors(mesh: &dentsim_vdb::TriMesh, sdf: impl Fn(DVec3) -> f64) -> (f64, f64) {
+    let step = (mesh.triangles.len() / 20000).max(1);
+    let (mut dist, mut angle, mut n) = (0.0, 0.0, 0usize);
+    for tri in mesh.triangles.iter().step_by(step) {
+        let [a, b, c] = tri.map(|i| mesh.points[i as usize].as_dvec3());
+        let normal = (b - a).cross(c - a);
+        if normal.length() < 1e-12 {
+            continue;
+        }
+        let centre = (a + b + c) / 3.0;
+        let h = 1e-3;
+        let grad = DVec3::new(
+            sdf(centre + DVec3::X * h) - sdf(centre - DVec3::X * h),
+            sdf(centre + DVec3::Y * h) - sdf(centre - DVec3::Y * h),
+            sdf(centre + DVec3::Z * h) - sdf(centre - DVec3::Z * h),
+        );
+        if grad.length() < 1e-9 || !grad.is_finite() {
+            continue;
+        }
+        dist += sdf(centre).abs();
+        angle += normal.normalize().dot(grad.normalize()).clamp(-1.0, 1.0).acos().to_degrees();
+        n += 1;
+    }
+    let n = n.max(1) as f64;
+    (dist / n, angle / n)
+}
+
+/// What the scan's resolution allows a reconstruction that does not sharpen: each tissue's
+/// indicator blurred by the scan's point spread (its Gaussian and the voxel's box, taken as a
+/// Gaussian of the box's variance along each world axis), without noise or grey steps, and
+/// its half-way surface at `voxel_mm`; the same measures as [`run`]. Sampled at 0.1 mm, the
+/// spline's own blur (σ² = ⅓ sample²) taken out of the point spread; `sampled`: then sampled
+/// on the scan's grid and reconstructed by the pipeline's spline there, as the scan gives it.
+pub fn resolution_floor(case: &FamilyCase, voxel_mm: f64, sampled: bool) -> Vec<(Label, f64, f64)> {
+    use dentsim_sim::tissues::field::{level_set_from_field_with, GridField, Kernel};
+    use rayon::prelude::*;
+    let phantom = Phantom::new(&case.spec);
+    let fdi = phantom.tooth();
+    let (lo, hi) = phantom.tooth_bounds(fdi).unwrap();
+    let (lo, hi) = (DVec3::from_array(lo) - 1.0, DVec3::from_array(hi) + 1.0);
+    let g = 0.1;
+    let dims = ((hi - lo) / g).ceil().as_uvec3().to_array().map(|n| n as usize + 1);
+    let spacing = case.spec.spacing();
+    let sigma = [0, 1, 2].map(|c| (case.spec.blur_sigma_mm.powi(2) + spacing[c].powi(2) / 12.0 - g * g / 3.0).max(0.0).sqrt() / g);
+    let index_to_world = [g, 0.0, 0.0, lo.x, 0.0, g, 0.0, lo.y, 0.0, 0.0, g, lo.z, 0.0, 0.0, 0.0, 1.0];
+    [Label::Enamel, Label::Dentin, Label::Pulp]
+        .into_iter()
+        .map(|label| {
+            let sdf = |p: DVec3| phantom.tooth_sdf(fdi, label, p).unwrap_or(f64::INFINITY);
+            let mut values: Vec<f32> = (0..dims[0] * dims[1] * dims[2])
+                .into_par_iter()
+                .map(|n| {
+                    let (i, j, k) = (n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1]));
+                    let p = lo + DVec3::new(i as f64, j as f64, k as f64) * g;
+                    (0.5 - sdf(p) / g).clamp(0.0, 1.0) as f32
+                })
+                .collect();
+            dentsim_cbct::phantom::gaussian_blur(&mut values, dims, sigma);
+            let grid = if sampled {
+                // On the scan's grid (its spacing along the world axes), as a scan samples it.
+                let fine = GridField { dims, index_to_world, values: &values };
+                let coarse_dims = [0, 1, 2].map(|c| ((hi[c] - lo[c]) / spacing[c]).floor() as usize + 1);
+                let coarse: Vec<f32> = (0..coarse_dims.iter().product::<usize>())
+                    .map(|n| {
+                        let ijk = [n % coarse_dims[0], (n / coarse_dims[0]) % coarse_dims[1], n / (coarse_dims[0] * coarse_dims[1])];
+                        let u = DVec3::from_array([0, 1, 2].map(|c| ijk[c] as f64 * spacing[c] / g));
+                        fine.trilinear_at(u) as f32
+                    })
+                    .collect();
+                let to_world = [spacing[0], 0.0, 0.0, lo.x, 0.0, spacing[1], 0.0, lo.y, 0.0, 0.0, spacing[2], lo.z, 0.0, 0.0, 0.0, 1.0];
+                let field = GridField { dims: coarse_dims, index_to_world: to_world, values: &coarse };
+                level_set_from_field_with(&field, Kernel::CubicBSpline, 0.5, voxel_mm, 3.0).unwrap()
+            } else {
+                let field = GridField { dims, index_to_world, values: &values };
+                level_set_from_field_with(&field, Kernel::CubicBSpline, 0.5, voxel_mm, 3.0).unwrap()
+            };
+            let (dist, angle) = mesh_errors(&grid.to_mesh(), sdf);
+            (label, dist, angle)
         })
         .collect()
 }
