@@ -71,6 +71,7 @@ pub struct Sweep {
     /// cylinders of the head's slabs at it instead (see [`Burr::axis_slabs`]), each with its
     /// bounding box across the rows (y and z, mm).
     capsules: Vec<LineCapsule>,
+    frustums: Vec<Frustum>,
     slab_boxes: Vec<[f64; 4]>,
     pub substeps: usize,
     /// Index box of the patch (inclusive).
@@ -141,6 +142,7 @@ impl Sweep {
         self.axes.reserve(poses.saturating_sub(self.axes.len()));
         self.capsules.reserve(poses.max(crate::burr::MAX_SLABS).saturating_sub(self.capsules.len()));
         self.slab_boxes.reserve(crate::burr::MAX_SLABS.saturating_sub(self.slab_boxes.len()));
+        self.frustums.reserve(crate::burr::MAX_SLABS.saturating_sub(self.frustums.len()));
         [side; 3]
     }
 
@@ -347,24 +349,27 @@ impl Sweep {
         // With the start free, the start pose changes nothing: rows reach as the later ones do.
         let first_pose = usize::from(start_free.is_some());
         self.capsules.clear();
+        self.frustums.clear();
         self.slab_boxes.clear();
         match &self.axes[first_pose.min(self.axes.len())..] {
             // One pose: each slab's cylinder, grown by the cut-off along the axis and across it,
             // holds every point within the cut-off of the head's part in that slab.
-            [(a, b)] if !self.exhaustive && !burr.axis_slabs().is_empty() => {
+            [(a, b)] if !self.exhaustive && !burr.axis_frustums().is_empty() => {
                 let along = |h: f64| *a + (*b - *a) * ((h - z_min) / (z_max - z_min));
-                for &(h0, h1, r) in burr.axis_slabs() {
-                    let (p, q, r) = (along(h0 - cutoff), along(h1 + cutoff), r + cutoff);
-                    self.capsules.push(LineCapsule::cylinder(p, q, r));
-                    // (A hair wider than the cylinder: the box only culls.)
-                    let (low, high) = (p.min(q) - (r + 1e-9), p.max(q) + (r + 1e-9));
+                for &(h0, h1, r0, r1) in burr.axis_frustums() {
+                    let (p, q) = (along(h0 - cutoff - FRUSTUM_SLACK), along(h1 + cutoff + FRUSTUM_SLACK));
+                    let frustum = Frustum::around(p, q, (h0, h1, r0, r1), cutoff);
+                    // (A hair wider than the frustum: the box only culls.)
+                    let r = frustum.widest() + 1e-9;
+                    let (low, high) = (p.min(q) - r, p.max(q) + r);
+                    self.frustums.push(frustum);
                     self.slab_boxes.push([low.y, high.y, low.z, high.z]);
                 }
             }
             axes => self.capsules.extend(axes.iter().map(|(a, b)| LineCapsule::new(*a, *b, axis_reach))),
         }
-        let slabbed = !self.slab_boxes.is_empty();
-        let (centres, capsules, slab_boxes) = (&self.centres[first_pose..], &self.capsules, &self.slab_boxes);
+        let slabbed = !self.frustums.is_empty();
+        let (centres, capsules, frustums, slab_boxes) = (&self.centres[first_pose..], &self.capsules, &self.frustums, &self.slab_boxes);
         for k in lo.z..=hi.z {
             let z = f64::from(k) * voxel;
             for j in lo.y..=hi.y {
@@ -380,9 +385,6 @@ impl Sweep {
                 let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
                 // (The slabs' cylinders lie within the one pose's bounding ball.)
                 let segments = if slabbed { 0 } else { centres.len().saturating_sub(1).max(1) };
-                if slabbed {
-                    (x_lo, x_hi) = (f64::NEG_INFINITY, f64::INFINITY);
-                }
                 for s in 0..segments {
                     let a = centres[s];
                     let b = centres[(s + 1).min(centres.len() - 1)];
@@ -395,10 +397,7 @@ impl Sweep {
                 }
                 if !capsules.is_empty() {
                     let (mut c_lo, mut c_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                    for (n, capsule) in capsules.iter().enumerate() {
-                        if slab_boxes.get(n).is_some_and(|b| y < b[0] || y > b[1] || z < b[2] || z > b[3]) {
-                            continue;
-                        }
+                    for capsule in capsules {
                         if let Some((l, h)) = capsule.x_interval(y, z) {
                             c_lo = c_lo.min(l);
                             c_hi = c_hi.max(h);
@@ -406,6 +405,17 @@ impl Sweep {
                     }
                     x_lo = x_lo.max(c_lo);
                     x_hi = x_hi.min(c_hi);
+                }
+                if slabbed {
+                    for (frustum, b) in frustums.iter().zip(slab_boxes) {
+                        if y < b[0] || y > b[1] || z < b[2] || z > b[3] {
+                            continue;
+                        }
+                        if let Some((l, h)) = frustum.x_interval(y, z) {
+                            x_lo = x_lo.min(l);
+                            x_hi = x_hi.max(h);
+                        }
+                    }
                 }
                 if x_lo > x_hi {
                     continue;
@@ -421,8 +431,13 @@ impl Sweep {
                         continue;
                     }
                 }
-                let i_lo = floor_i32(x_lo * inv_voxel).max(lo.x).max(m_lo);
-                let i_hi = ceil_i32(x_hi * inv_voxel).min(hi.x).min(m_hi);
+                // The frustums are grown past rounding (FRUSTUM_SLACK): the voxels within them.
+                let (i_lo, i_hi) = if slabbed {
+                    (ceil_i32(x_lo * inv_voxel), floor_i32(x_hi * inv_voxel))
+                } else {
+                    (floor_i32(x_lo * inv_voxel), ceil_i32(x_hi * inv_voxel))
+                };
+                let (i_lo, i_hi) = (i_lo.max(lo.x).max(m_lo), i_hi.min(hi.x).min(m_hi));
                 if i_lo > i_hi {
                     continue;
                 }
@@ -744,8 +759,6 @@ struct LineCapsule {
     qa: f64,
     inv_2qa: f64,
     inv_ux: f64,
-    /// False for the bare cylinder (no balls on its ends).
-    caps: bool,
 }
 
 impl LineCapsule {
@@ -754,12 +767,7 @@ impl LineCapsule {
         let len = (b - a).length();
         let u = if len > 0.0 { (b - a) / len } else { DVec3::ZERO };
         let qa = 1.0 - u.x * u.x;
-        LineCapsule { a, b, r2: r * r, u, len, qa, inv_2qa: 1.0 / (2.0 * qa), inv_ux: 1.0 / u.x, caps: true }
-    }
-
-    /// The cylinder of radius `r` about the segment from `a` to `b`, without the end balls.
-    fn cylinder(a: DVec3, b: DVec3, r: f64) -> Self {
-        LineCapsule { caps: false, ..Self::new(a, b, r) }
+        LineCapsule { a, b, r2: r * r, u, len, qa, inv_2qa: 1.0 / (2.0 * qa), inv_ux: 1.0 / u.x }
     }
 
     /// The x-interval of the line {(x, y, z)} within the capsule (convex: the hull of its two
@@ -772,7 +780,7 @@ impl LineCapsule {
                 hi = hi.max(h);
             }
         };
-        for c in [self.a, self.b].into_iter().filter(|_| self.caps) {
+        for c in [self.a, self.b] {
             let d2 = (y - c.y) * (y - c.y) + (z - c.z) * (z - c.z);
             if d2 <= self.r2 {
                 let half = (self.r2 - d2).sqrt();
@@ -809,6 +817,96 @@ impl LineCapsule {
             take(l, h);
         }
         (lo <= hi).then_some((lo, hi))
+    }
+}
+
+/// How far (mm) a frustum of [`Frustum::around`] reaches past the points within the cut-off of
+/// the head: far above the rounding of the row's f32 distances (~1e-6 mm; a voxel whose value
+/// rounds below the cut-off lies within it) and of its own f64 roots, a fifth of a thousandth of
+/// a voxel at 0.05 mm.
+const FRUSTUM_SLACK: f64 = 1e-5;
+
+/// The points within the cut-off of a head's part in one of its slabs (see
+/// [`Burr::axis_frustums`]), bounded by a truncated cone about the axis, readied for
+/// [`Frustum::x_interval`] along many rows. A solid of revolution's nearest point to p lies in
+/// p's half-plane through the axis, so growing the profile's radius bound `r0 + s·h` (a line in
+/// that half-plane) by `c` across itself, `c·√(1 + s²)`, and its heights by `c` bounds it.
+#[derive(Clone, Copy, Debug)]
+struct Frustum {
+    /// The axis point at the lowest height and the unit axis; heights along it from 0 to `len`.
+    a: DVec3,
+    u: DVec3,
+    len: f64,
+    /// Radius at height 0 and its growth per unit height.
+    g0: f64,
+    s: f64,
+    /// The row quadratic's leading term, and its divisions.
+    qa: f64,
+    inv_2qa: f64,
+    inv_ux: f64,
+}
+
+impl Frustum {
+    /// From world points `a` (the axis at the slab's lowest height less the cut-off and the
+    /// slack) and `b` (the highest plus both), the slab's `(h0, h1, r0, r1)`.
+    fn around(a: DVec3, b: DVec3, (h0, h1, r0, r1): (f64, f64, f64, f64), cutoff: f64) -> Self {
+        let len = (b - a).length();
+        let u = if len > 0.0 { (b - a) / len } else { DVec3::Z };
+        let s = if h1 > h0 { (r1 - r0) / (h1 - h0) } else { 0.0 };
+        // At height 0, (cutoff + slack) below h0; grown across by the cut-off and the slack.
+        let g0 = r0 - s * (cutoff + FRUSTUM_SLACK) + (cutoff + FRUSTUM_SLACK) * (1.0 + s * s).sqrt();
+        let qa = 1.0 - u.x * u.x * (1.0 + s * s);
+        Frustum { a, u, len, g0, s, qa, inv_2qa: 0.5 / qa, inv_ux: 1.0 / u.x }
+    }
+
+    /// The largest radius (at one end or the other).
+    fn widest(&self) -> f64 {
+        self.g0.max(self.g0 + self.s * self.len)
+    }
+
+    /// An x-interval of the line {(x, y, z)} holding its points within the frustum, if any.
+    #[inline]
+    fn x_interval(&self, y: f64, z: f64) -> Option<(f64, f64)> {
+        let (a, u, s) = (self.a, self.u, self.s);
+        // p(x) − a = w + x·X: the squared distance to the axis line minus the squared radius at
+        // the foot's height is quadratic in x, the height linear.
+        let w = DVec3::new(-a.x, y - a.y, z - a.z);
+        let wu = w.dot(u);
+        let g = self.g0 + s * wu;
+        let qb = 2.0 * (w.x - u.x * (wu + s * g));
+        let qc = w.length_squared() - wu * wu - g * g;
+        // Within the slab 0 ≤ (p − a)·u ≤ len.
+        let (mut l, mut h) = if u.x.abs() > 1e-12 {
+            let (s0, s1) = (-wu * self.inv_ux, (self.len - wu) * self.inv_ux);
+            (s0.min(s1), s0.max(s1))
+        } else if (0.0..=self.len).contains(&wu) {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        } else {
+            return None;
+        };
+        let disc = qb * qb - 4.0 * self.qa * qc;
+        if self.qa > 1e-6 {
+            if disc < 0.0 {
+                return None;
+            }
+            let root = disc.sqrt();
+            l = l.max((-qb - root) * self.inv_2qa);
+            h = h.min((-qb + root) * self.inv_2qa);
+        } else if self.qa < -1e-6 && disc >= 0.0 {
+            // The cone is steeper than the row: outside the roots, which within the slab (the
+            // frustum is convex) leaves one side; the hull of both sides is the bound.
+            let root = disc.sqrt();
+            let (r_lo, r_hi) = ((-qb + root) * self.inv_2qa, (-qb - root) * self.inv_2qa);
+            let (left, right) = ((l, h.min(r_lo)), (l.max(r_hi), h));
+            match (left.0 <= left.1, right.0 <= right.1) {
+                (true, true) => {}
+                (true, false) => h = left.1,
+                (false, true) => l = right.0,
+                (false, false) => return None,
+            }
+        }
+        // (Otherwise, nearly level with the row or nowhere outside the cone: the whole slab.)
+        (l <= h).then_some((l, h))
     }
 }
 
