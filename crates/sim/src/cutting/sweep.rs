@@ -88,6 +88,8 @@ pub struct Sweep {
     exhaustive: bool,
     /// The cut-off (f32 bits) that every value of the patch outside its spans holds, once built.
     spans_only: Option<u32>,
+    /// Only an unmeasured subtract reads the patch (see [`Sweep::set_unmeasured`]).
+    unmeasured: bool,
 }
 
 /// One row run's distances for a non-round head (see [`Sweep::build_in`]), voxel by voxel.
@@ -144,6 +146,16 @@ impl Sweep {
         self.slab_boxes.reserve(crate::burr::MAX_SLABS.saturating_sub(self.slab_boxes.len()));
         self.frustums.reserve(crate::burr::MAX_SLABS.saturating_sub(self.frustums.len()));
         [side; 3]
+    }
+
+    /// Whether only an unmeasured subtract (`Measure::Skip`, no tool offset) will read the
+    /// patches built from now on. Such a subtract reads no voxel whose value is at least the
+    /// grid's background, and `band` is the largest background: so heads evaluated at one pose
+    /// bound their rows by what lies within the band of the head, not the cut-off, and the voxels
+    /// between (a voxel and a half deep around the head) keep the cut-off. Values below the band
+    /// are the same bit for bit, so the grids such a subtract leaves are too.
+    pub fn set_unmeasured(&mut self, unmeasured: bool) {
+        self.unmeasured = unmeasured;
     }
 
     /// Voxels along each side of the box a cut of `travel_mm` works in (what [`Self::reserve`]
@@ -352,13 +364,15 @@ impl Sweep {
         self.frustums.clear();
         self.slab_boxes.clear();
         match &self.axes[first_pose.min(self.axes.len())..] {
-            // One pose: each slab's cylinder, grown by the cut-off along the axis and across it,
-            // holds every point within the cut-off of the head's part in that slab.
+            // One pose: each slab's frustum, grown by the cut-off along the axis and across it,
+            // holds every point within the cut-off of the head's part in that slab (within the
+            // band, when no voxel from the band up is read).
             [(a, b)] if !self.exhaustive && !burr.axis_frustums().is_empty() => {
                 let along = |h: f64| *a + (*b - *a) * ((h - z_min) / (z_max - z_min));
+                let grow = if self.unmeasured { band } else { cutoff };
                 for &(h0, h1, r0, r1) in burr.axis_frustums() {
-                    let (p, q) = (along(h0 - cutoff - FRUSTUM_SLACK), along(h1 + cutoff + FRUSTUM_SLACK));
-                    let frustum = Frustum::around(p, q, (h0, h1, r0, r1), cutoff);
+                    let (p, q) = (along(h0 - grow - FRUSTUM_SLACK), along(h1 + grow + FRUSTUM_SLACK));
+                    let frustum = Frustum::around(p, q, (h0, h1, r0, r1), grow);
                     // (A hair wider than the frustum: the box only culls.)
                     let r = frustum.widest() + 1e-9;
                     let (low, high) = (p.min(q) - r, p.max(q) + r);
@@ -847,8 +861,8 @@ struct Frustum {
 }
 
 impl Frustum {
-    /// From world points `a` (the axis at the slab's lowest height less the cut-off and the
-    /// slack) and `b` (the highest plus both), the slab's `(h0, h1, r0, r1)`.
+    /// From world points `a` (the axis at the slab's lowest height less `cutoff` and the slack)
+    /// and `b` (the highest plus both), the slab's `(h0, h1, r0, r1)`.
     fn around(a: DVec3, b: DVec3, (h0, h1, r0, r1): (f64, f64, f64, f64), cutoff: f64) -> Self {
         let len = (b - a).length();
         let u = if len > 0.0 { (b - a) / len } else { DVec3::Z };
@@ -968,6 +982,48 @@ mod tests {
             }
             assert!(one_pose >= 8 && cut == 16, "{spec}: {one_pose} one-pose strokes, {cut} that cut");
         }
+    }
+
+    /// A patch built for an unmeasured subtract holds, bit for bit, the full patch's value at
+    /// every voxel where either is below the band (the only voxels such a subtract reads), and
+    /// its spans lie within the full patch's: every burr family, haptic ticks and longer strokes.
+    #[test]
+    fn an_unmeasured_patch_keeps_every_value_below_the_band() {
+        let mut unit = crate::unit_random(0x5851_f42d_4c95_7f2du64);
+        let (voxel, band) = (0.05, 0.15);
+        let band32 = band as f32;
+        let specs = ["cylinder_flat_012", "cylinder_round_012", "taper_flat_012", "taper_round_014", "inverted_cone_010", "flame_016", "pear_010", "needle_012", "xmas_016", "wheel_025", "round:1"];
+        let (mut full, mut unmeasured) = (Sweep::default(), Sweep::default());
+        unmeasured.set_unmeasured(true);
+        let mut left_out = 0;
+        for spec in specs {
+            let burr = Burr::parse(spec).unwrap();
+            for case in 0..16 {
+                let tilt = DQuat::from_axis_angle(DVec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5).normalize_or(DVec3::Z), std::f64::consts::PI * unit());
+                let from = DAffine3::from_rotation_translation(tilt, DVec3::new(unit(), unit(), unit()) - 0.5);
+                let length = if case % 4 == 3 { 0.2 * unit() } else { 0.024 * unit() };
+                let to = DAffine3::from_rotation_translation(tilt, from.translation + DVec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5).normalize_or(DVec3::X) * length);
+                let done = match burr.ball_radius() {
+                    Some(r) => Some(Done::Ball(CutBall { centre: from.transform_point3(DVec3::new(0.0, 0.0, r)), radius: r })),
+                    None => Some(Done::Head(CutHead { to_tool: from.inverse(), offset: 0.0 })),
+                };
+                full.build_skipping(&burr, from, to, voxel, band, done).unwrap();
+                unmeasured.build_skipping(&burr, from, to, voxel, band, done).unwrap();
+                let (f, u) = (&full.patch, &unmeasured.patch);
+                assert_eq!((f.index_min, f.dims), (u.index_min, u.dims), "{spec} case {case}");
+                for (n, (a, b)) in f.values.iter().zip(&u.values).enumerate() {
+                    if *a < band32 || *b < band32 {
+                        assert_eq!(a.to_bits(), b.to_bits(), "{spec} case {case}: voxel {n}: {a} vs {b}");
+                    }
+                    left_out += usize::from(a != b);
+                }
+                for (row, (fs, us)) in f.spans.chunks_exact(2).zip(u.spans.chunks_exact(2)).enumerate() {
+                    assert!(us[0] == us[1] || (fs[0] <= us[0] && us[1] <= fs[1]), "{spec} case {case}: row {row}: span {us:?} beyond {fs:?}");
+                }
+            }
+        }
+        // The bound was taken: voxels between the band and the cut-off were left out.
+        assert!(left_out > 0);
     }
 
     /// A sweep reused from stroke to stroke (which puts back only the last spans) gives the
