@@ -10,10 +10,11 @@
 //!
 //! Voxels whose lower bound lies beyond `band + 1.5 voxel` get that cut-off value without an exact
 //! evaluation; every value is therefore either exact (to the bound above) or ≥ the cut-off, which
-//! keeps the patch valid for `LevelSet::subtract_logged` (it reads one voxel past the band). Other
+//! keeps the patch valid for `LevelSet::subtract_logged` (it reads one voxel past the band; an
+//! unmeasured one reads nothing from the band up, see [`Sweep::set_unmeasured`]). Other
 //! heads are evaluated a run of a row at a time ([`Burr::sdf_row`]); the runs leave out what a
 //! stroke continuing the last cannot change (see `Behind` and [`Burr::inner_capsule`]). With one
-//! pose to evaluate, rows are bounded by the head's slabs ([`Burr::axis_slabs`]) and written by a
+//! pose to evaluate, rows are bounded by the head's slabs ([`Burr::axis_frustums`]) and written by a
 //! fast path that gives the general loop's values bit for bit (a test pins the two together).
 use dentsim_vdb::{block_counts, DensePatch, LEAF_DIM};
 use glam::{DAffine3, DMat3, DQuat, DVec3, IVec3};
@@ -68,8 +69,8 @@ pub struct Sweep {
     /// World ends of the head's axis at each sub-pose (non-round heads; see [`Burr::axis_extent`]).
     axes: Vec<(DVec3, DVec3)>,
     /// The capsules about those axes the rows reach, readied; with one pose evaluated, the
-    /// cylinders of the head's slabs at it instead (see [`Burr::axis_slabs`]), each with its
-    /// bounding box across the rows (y and z, mm).
+    /// truncated cones of the head's slabs at it instead (see [`Burr::axis_frustums`]), each with
+    /// its bounding box across the rows (y and z, mm).
     capsules: Vec<LineCapsule>,
     frustums: Vec<Frustum>,
     slab_boxes: Vec<[f64; 4]>,
