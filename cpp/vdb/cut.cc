@@ -28,11 +28,15 @@ struct Box {
   size_t index(int i, int j, int k) const { return size_t(i) + dims[0] * (size_t(j) + dims[1] * size_t(k)); }
 };
 
-}  // namespace
-
-CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
-                       std::array<uint32_t, 3> dims, rust::Slice<const float> tool,
-                       rust::Slice<const uint32_t> spans, float offset, bool logged, bool measured) {
+// subtract_core, compiled twice: for unmeasured cuts, whose voxel loop then carries none of the
+// measure's stores and branches (the haptic tick's enamel -13 %), and for the rest with
+// `measured` and `logged` left to run time (fixing both as well made measured cuts 4 % slower).
+template <bool unmeasured>
+CutStats subtract_as(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
+                     std::array<uint32_t, 3> dims, rust::Slice<const float> tool,
+                     rust::Slice<const uint32_t> spans, float offset, bool logged,
+                     bool measure) {
+  const bool measured = !unmeasured && measure;
   const size_t expected = size_t(dims[0]) * dims[1] * dims[2];
   if (tool.size() != expected)
     throw std::invalid_argument("tool patch holds " + std::to_string(tool.size()) +
@@ -223,6 +227,15 @@ CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   }
   stats.removed_volume = (stats.removed_volume - correction) * h * h * h;
   return stats;
+}
+
+}  // namespace
+
+CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
+                       std::array<uint32_t, 3> dims, rust::Slice<const float> tool,
+                       rust::Slice<const uint32_t> spans, float offset, bool logged, bool measured) {
+  return measured ? subtract_as<false>(impl, index_min, dims, tool, spans, offset, logged, true)
+                  : subtract_as<true>(impl, index_min, dims, tool, spans, offset, logged, false);
 }
 
 CutStats LevelSet::subtract_dense(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,

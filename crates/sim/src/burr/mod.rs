@@ -129,6 +129,9 @@ pub struct Burr {
     /// The head cut across its axis into slabs, each as (lowest, highest height, an upper bound
     /// on the head's radius between them); see [`axis_slabs`](Self::axis_slabs).
     slabs: Vec<(f64, f64, f64)>,
+    /// The same slabs, each with a radius bound linear in the height; see
+    /// [`axis_frustums`](Self::axis_frustums).
+    frustums: Vec<(f64, f64, f64, f64)>,
 }
 
 /// Slabs of [`Burr::axis_slabs`]: about this long (mm), at most `MAX_SLABS`. Measured on the
@@ -192,7 +195,11 @@ impl Burr {
                 slabs
             }
         };
-        let mut burr = Burr { shape, diameter_mm, length_mm: top, shank_diameter_mm, iso: None, head, shank, bounding_radius, axis_depths: Vec::new(), slabs };
+        let frustums = match &head {
+            Head::Ball { .. } => Vec::new(),
+            Head::Revolved(p) => slabs.iter().map(|&(h0, h1, _)| frustum_over(p, h0, h1)).collect(),
+        };
+        let mut burr = Burr { shape, diameter_mm, length_mm: top, shank_diameter_mm, iso: None, head, shank, bounding_radius, axis_depths: Vec::new(), slabs, frustums };
         let (z_lo, z_hi, _) = burr.axis_extent();
         let (z_lo, z_hi) = if burr.ball_radius().is_some() { (0.0, 2.0 * r) } else { (z_lo, z_hi) };
         burr.axis_depths = (0..AXIS_SAMPLES)
@@ -328,6 +335,15 @@ impl Burr {
     /// [`axis_extent`](Self::axis_extent). Empty for a ball.
     pub fn axis_slabs(&self) -> &[(f64, f64, f64)] {
         &self.slabs
+    }
+
+    /// The slabs of [`axis_slabs`](Self::axis_slabs), each as (lowest, highest height, radius
+    /// bound at the lowest, at the highest), tool frame: every point of the head at a height z
+    /// between them lies within the radius that runs linearly between the two bounds, a
+    /// truncated cone, on average no wider than the slab's cylinder. Where the head narrows (a
+    /// taper, a flame's ogive) it hugs the head far closer than the cylinder. Empty for a ball.
+    pub fn axis_frustums(&self) -> &[(f64, f64, f64, f64)] {
+        &self.frustums
     }
 
     /// A capsule about the axis (ends' heights and radius, tool frame) every point of which lies
@@ -470,6 +486,35 @@ fn head_profile(shape: Shape, r: f64, l: f64) -> Result<Head> {
         }
     };
     Ok(Head::Revolved(Profile::new(pieces)))
+}
+
+/// The frustum of [`Burr::axis_frustums`] over heights `[h0, h1]` of `profile`: a line
+/// `r0 + s·(z − h0)` above the profile's radius bound on each of many windows of the slab (the
+/// line's lowest over a window is at one of its ends), with the slope that makes it narrowest on
+/// average. That average is convex in the slope (a maximum of lines plus a line), so a ternary
+/// search finds it; slope 0 is the slab's cylinder, never narrower than the result.
+fn frustum_over(profile: &Profile, h0: f64, h1: f64) -> (f64, f64, f64, f64) {
+    const WINDOWS: usize = 128;
+    let len = h1 - h0;
+    let at = |i: usize| if i == WINDOWS { h1 } else { h0 + len * i as f64 / WINDOWS as f64 };
+    let windows: Vec<(f64, f64, f64)> = (0..WINDOWS).map(|i| (at(i) - h0, at(i + 1) - h0, profile.max_radius_within(at(i), at(i + 1)))).collect();
+    // The least r0 that holds every window at slope s.
+    let base = |s: f64| windows.iter().map(|&(a, b, r)| r - s * if s >= 0.0 { a } else { b }).fold(0f64, f64::max);
+    let mean = |s: f64| base(s) + s * len / 2.0;
+    // Steeper than this (a flat end's 1/100 of the width per height) bounds nothing better.
+    let (mut lo, mut hi) = (-100.0 * profile.max_radius / len.max(1e-9), 100.0 * profile.max_radius / len.max(1e-9));
+    for _ in 0..100 {
+        let (a, b) = (lo + (hi - lo) / 3.0, hi - (hi - lo) / 3.0);
+        if mean(a) <= mean(b) {
+            hi = b;
+        } else {
+            lo = a;
+        }
+    }
+    let s = (lo + hi) / 2.0;
+    let s = if mean(s) < mean(0.0) { s } else { 0.0 };
+    let r0 = base(s);
+    (h0, h1, r0, r0 + s * len)
 }
 
 pub mod catalogue;

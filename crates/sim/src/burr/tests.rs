@@ -283,6 +283,40 @@ fn the_axis_slabs_hold_every_head() {
     }
 }
 
+/// The frustums share the slabs' heights, and every point of the profile (sampled independently
+/// of the bound's code) lies within the radius that runs linearly across its frustum, on average
+/// no wider than its slab's cylinder; and they are tight where the radius is known.
+#[test]
+fn the_axis_frustums_hold_every_head() {
+    for burr in every_burr().into_iter().chain(["flame_016", "pear_010", "inverted_cone_010", "taper_round_014"].map(|s| Burr::parse(s).unwrap())) {
+        let (slabs, frustums) = (burr.axis_slabs(), burr.axis_frustums());
+        if burr.ball_radius().is_some() {
+            assert!(frustums.is_empty());
+            continue;
+        }
+        assert_eq!(slabs.len(), frustums.len(), "{:?}", burr.shape);
+        for (s, f) in slabs.iter().zip(frustums) {
+            assert_eq!((s.0, s.1), (f.0, f.1), "{:?}", burr.shape);
+            assert!(f.2 >= 0.0 && f.3 >= 0.0 && f.2 + f.3 <= 2.0 * s.2 + 1e-12, "{:?}: frustum {f:?} looser than slab {s:?}", burr.shape);
+        }
+        for p in polygon(&burr.head_profile()) {
+            let widest = frustums
+                .iter()
+                .filter(|f| f.0 <= p.y && p.y <= f.1)
+                .map(|f| f.2 + (f.3 - f.2) * (p.y - f.0) / (f.1 - f.0))
+                .fold(f64::NEG_INFINITY, f64::max);
+            assert!(p.x <= widest + 1e-12, "{:?}: profile point {p} beyond its frustums ({widest})", burr.shape);
+        }
+    }
+    // A flat taper's frustums follow its side: at each end within a hair of its radius there.
+    let taper = Burr::parse("taper_flat_012").unwrap();
+    let radius_at = |z: f64| 0.6 - (6.0 - z) * 2f64.to_radians().tan();
+    for f in taper.axis_frustums() {
+        assert!((f.2 - radius_at(f.0)).abs() < 1e-3 && (f.3 - radius_at(f.1)).abs() < 1e-3, "taper frustum {f:?}");
+    }
+    assert_eq!(Burr::parse("cylinder_flat_012").unwrap().axis_frustums(), &[(0.0, 4.0, 0.6, 0.6)]);
+}
+
 /// A row's distances do not depend on where the row is cut into batches or runs: every prefix
 /// of a row, and every run from any point of it, gives bit for bit the whole row's values.
 #[test]

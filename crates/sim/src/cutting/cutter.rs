@@ -188,6 +188,8 @@ impl Cutter {
         self.skipped = done;
         // Only blocks where some grid has material can change (an outside tile cannot).
         let grids = &model.tissues;
+        // A geometric feed measures nothing unless told to; a limited one reads past the band.
+        self.sweep.set_unmeasured(self.measure == Measure::Skip && feed == Feed::Geometric);
         self.sweep.build_in(burr, from, to, h, band, done, |lo, dims, blocks| {
             grids.iter().try_for_each(|t| t.grid.mark_material_blocks(lo, dims, blocks).map_err(Into::into))
         })?;

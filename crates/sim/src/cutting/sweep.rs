@@ -10,10 +10,11 @@
 //!
 //! Voxels whose lower bound lies beyond `band + 1.5 voxel` get that cut-off value without an exact
 //! evaluation; every value is therefore either exact (to the bound above) or ≥ the cut-off, which
-//! keeps the patch valid for `LevelSet::subtract_logged` (it reads one voxel past the band). Other
+//! keeps the patch valid for `LevelSet::subtract_logged` (it reads one voxel past the band; an
+//! unmeasured one reads nothing from the band up, see [`Sweep::set_unmeasured`]). Other
 //! heads are evaluated a run of a row at a time ([`Burr::sdf_row`]); the runs leave out what a
 //! stroke continuing the last cannot change (see `Behind` and [`Burr::inner_capsule`]). With one
-//! pose to evaluate, rows are bounded by the head's slabs ([`Burr::axis_slabs`]) and written by a
+//! pose to evaluate, rows are bounded by the head's slabs ([`Burr::axis_frustums`]) and written by a
 //! fast path that gives the general loop's values bit for bit (a test pins the two together).
 use dentsim_vdb::{block_counts, DensePatch, LEAF_DIM};
 use glam::{DAffine3, DMat3, DQuat, DVec3, IVec3};
@@ -68,9 +69,10 @@ pub struct Sweep {
     /// World ends of the head's axis at each sub-pose (non-round heads; see [`Burr::axis_extent`]).
     axes: Vec<(DVec3, DVec3)>,
     /// The capsules about those axes the rows reach, readied; with one pose evaluated, the
-    /// cylinders of the head's slabs at it instead (see [`Burr::axis_slabs`]), each with its
-    /// bounding box across the rows (y and z, mm).
+    /// truncated cones of the head's slabs at it instead (see [`Burr::axis_frustums`]), each with
+    /// its bounding box across the rows (y and z, mm).
     capsules: Vec<LineCapsule>,
+    frustums: Vec<Frustum>,
     slab_boxes: Vec<[f64; 4]>,
     pub substeps: usize,
     /// Index box of the patch (inclusive).
@@ -87,6 +89,8 @@ pub struct Sweep {
     exhaustive: bool,
     /// The cut-off (f32 bits) that every value of the patch outside its spans holds, once built.
     spans_only: Option<u32>,
+    /// Only an unmeasured subtract reads the patch (see [`Sweep::set_unmeasured`]).
+    unmeasured: bool,
 }
 
 /// One row run's distances for a non-round head (see [`Sweep::build_in`]), voxel by voxel.
@@ -141,7 +145,18 @@ impl Sweep {
         self.axes.reserve(poses.saturating_sub(self.axes.len()));
         self.capsules.reserve(poses.max(crate::burr::MAX_SLABS).saturating_sub(self.capsules.len()));
         self.slab_boxes.reserve(crate::burr::MAX_SLABS.saturating_sub(self.slab_boxes.len()));
+        self.frustums.reserve(crate::burr::MAX_SLABS.saturating_sub(self.frustums.len()));
         [side; 3]
+    }
+
+    /// Whether only an unmeasured subtract (`Measure::Skip`, no tool offset) will read the
+    /// patches built from now on. Such a subtract reads no voxel whose value is at least the
+    /// grid's background, and `band` is the largest background: so heads evaluated at one pose
+    /// bound their rows by what lies within the band of the head, not the cut-off, and the voxels
+    /// between (a voxel and a half deep around the head) keep the cut-off. Values below the band
+    /// are the same bit for bit, so the grids such a subtract leaves are too.
+    pub fn set_unmeasured(&mut self, unmeasured: bool) {
+        self.unmeasured = unmeasured;
     }
 
     /// Voxels along each side of the box a cut of `travel_mm` works in (what [`Self::reserve`]
@@ -347,24 +362,29 @@ impl Sweep {
         // With the start free, the start pose changes nothing: rows reach as the later ones do.
         let first_pose = usize::from(start_free.is_some());
         self.capsules.clear();
+        self.frustums.clear();
         self.slab_boxes.clear();
         match &self.axes[first_pose.min(self.axes.len())..] {
-            // One pose: each slab's cylinder, grown by the cut-off along the axis and across it,
-            // holds every point within the cut-off of the head's part in that slab.
-            [(a, b)] if !self.exhaustive && !burr.axis_slabs().is_empty() => {
+            // One pose: each slab's frustum, grown by the cut-off along the axis and across it,
+            // holds every point within the cut-off of the head's part in that slab (within the
+            // band, when no voxel from the band up is read).
+            [(a, b)] if !self.exhaustive && !burr.axis_frustums().is_empty() => {
                 let along = |h: f64| *a + (*b - *a) * ((h - z_min) / (z_max - z_min));
-                for &(h0, h1, r) in burr.axis_slabs() {
-                    let (p, q, r) = (along(h0 - cutoff), along(h1 + cutoff), r + cutoff);
-                    self.capsules.push(LineCapsule::cylinder(p, q, r));
-                    // (A hair wider than the cylinder: the box only culls.)
-                    let (low, high) = (p.min(q) - (r + 1e-9), p.max(q) + (r + 1e-9));
+                let grow = if self.unmeasured { band } else { cutoff };
+                for &(h0, h1, r0, r1) in burr.axis_frustums() {
+                    let (p, q) = (along(h0 - grow - FRUSTUM_SLACK), along(h1 + grow + FRUSTUM_SLACK));
+                    let frustum = Frustum::around(p, q, (h0, h1, r0, r1), grow);
+                    // (A hair wider than the frustum: the box only culls.)
+                    let r = frustum.widest() + 1e-9;
+                    let (low, high) = (p.min(q) - r, p.max(q) + r);
+                    self.frustums.push(frustum);
                     self.slab_boxes.push([low.y, high.y, low.z, high.z]);
                 }
             }
             axes => self.capsules.extend(axes.iter().map(|(a, b)| LineCapsule::new(*a, *b, axis_reach))),
         }
-        let slabbed = !self.slab_boxes.is_empty();
-        let (centres, capsules, slab_boxes) = (&self.centres[first_pose..], &self.capsules, &self.slab_boxes);
+        let slabbed = !self.frustums.is_empty();
+        let (centres, capsules, frustums, slab_boxes) = (&self.centres[first_pose..], &self.capsules, &self.frustums, &self.slab_boxes);
         for k in lo.z..=hi.z {
             let z = f64::from(k) * voxel;
             for j in lo.y..=hi.y {
@@ -380,9 +400,6 @@ impl Sweep {
                 let (mut x_lo, mut x_hi) = (f64::INFINITY, f64::NEG_INFINITY);
                 // (The slabs' cylinders lie within the one pose's bounding ball.)
                 let segments = if slabbed { 0 } else { centres.len().saturating_sub(1).max(1) };
-                if slabbed {
-                    (x_lo, x_hi) = (f64::NEG_INFINITY, f64::INFINITY);
-                }
                 for s in 0..segments {
                     let a = centres[s];
                     let b = centres[(s + 1).min(centres.len() - 1)];
@@ -395,10 +412,7 @@ impl Sweep {
                 }
                 if !capsules.is_empty() {
                     let (mut c_lo, mut c_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-                    for (n, capsule) in capsules.iter().enumerate() {
-                        if slab_boxes.get(n).is_some_and(|b| y < b[0] || y > b[1] || z < b[2] || z > b[3]) {
-                            continue;
-                        }
+                    for capsule in capsules {
                         if let Some((l, h)) = capsule.x_interval(y, z) {
                             c_lo = c_lo.min(l);
                             c_hi = c_hi.max(h);
@@ -406,6 +420,17 @@ impl Sweep {
                     }
                     x_lo = x_lo.max(c_lo);
                     x_hi = x_hi.min(c_hi);
+                }
+                if slabbed {
+                    for (frustum, b) in frustums.iter().zip(slab_boxes) {
+                        if y < b[0] || y > b[1] || z < b[2] || z > b[3] {
+                            continue;
+                        }
+                        if let Some((l, h)) = frustum.x_interval(y, z) {
+                            x_lo = x_lo.min(l);
+                            x_hi = x_hi.max(h);
+                        }
+                    }
                 }
                 if x_lo > x_hi {
                     continue;
@@ -421,8 +446,13 @@ impl Sweep {
                         continue;
                     }
                 }
-                let i_lo = floor_i32(x_lo * inv_voxel).max(lo.x).max(m_lo);
-                let i_hi = ceil_i32(x_hi * inv_voxel).min(hi.x).min(m_hi);
+                // The frustums are grown past rounding (FRUSTUM_SLACK): the voxels within them.
+                let (i_lo, i_hi) = if slabbed {
+                    (ceil_i32(x_lo * inv_voxel), floor_i32(x_hi * inv_voxel))
+                } else {
+                    (floor_i32(x_lo * inv_voxel), ceil_i32(x_hi * inv_voxel))
+                };
+                let (i_lo, i_hi) = (i_lo.max(lo.x).max(m_lo), i_hi.min(hi.x).min(m_hi));
                 if i_lo > i_hi {
                     continue;
                 }
@@ -744,8 +774,6 @@ struct LineCapsule {
     qa: f64,
     inv_2qa: f64,
     inv_ux: f64,
-    /// False for the bare cylinder (no balls on its ends).
-    caps: bool,
 }
 
 impl LineCapsule {
@@ -754,12 +782,7 @@ impl LineCapsule {
         let len = (b - a).length();
         let u = if len > 0.0 { (b - a) / len } else { DVec3::ZERO };
         let qa = 1.0 - u.x * u.x;
-        LineCapsule { a, b, r2: r * r, u, len, qa, inv_2qa: 1.0 / (2.0 * qa), inv_ux: 1.0 / u.x, caps: true }
-    }
-
-    /// The cylinder of radius `r` about the segment from `a` to `b`, without the end balls.
-    fn cylinder(a: DVec3, b: DVec3, r: f64) -> Self {
-        LineCapsule { caps: false, ..Self::new(a, b, r) }
+        LineCapsule { a, b, r2: r * r, u, len, qa, inv_2qa: 1.0 / (2.0 * qa), inv_ux: 1.0 / u.x }
     }
 
     /// The x-interval of the line {(x, y, z)} within the capsule (convex: the hull of its two
@@ -772,7 +795,7 @@ impl LineCapsule {
                 hi = hi.max(h);
             }
         };
-        for c in [self.a, self.b].into_iter().filter(|_| self.caps) {
+        for c in [self.a, self.b] {
             let d2 = (y - c.y) * (y - c.y) + (z - c.z) * (z - c.z);
             if d2 <= self.r2 {
                 let half = (self.r2 - d2).sqrt();
@@ -809,6 +832,96 @@ impl LineCapsule {
             take(l, h);
         }
         (lo <= hi).then_some((lo, hi))
+    }
+}
+
+/// How far (mm) a frustum of [`Frustum::around`] reaches past the points within the cut-off of
+/// the head: far above the rounding of the row's f32 distances (~1e-6 mm; a voxel whose value
+/// rounds below the cut-off lies within it) and of its own f64 roots, a fifth of a thousandth of
+/// a voxel at 0.05 mm.
+const FRUSTUM_SLACK: f64 = 1e-5;
+
+/// The points within the cut-off of a head's part in one of its slabs (see
+/// [`Burr::axis_frustums`]), bounded by a truncated cone about the axis, readied for
+/// [`Frustum::x_interval`] along many rows. A solid of revolution's nearest point to p lies in
+/// p's half-plane through the axis, so growing the profile's radius bound `r0 + s·h` (a line in
+/// that half-plane) by `c` across itself, `c·√(1 + s²)`, and its heights by `c` bounds it.
+#[derive(Clone, Copy, Debug)]
+struct Frustum {
+    /// The axis point at the lowest height and the unit axis; heights along it from 0 to `len`.
+    a: DVec3,
+    u: DVec3,
+    len: f64,
+    /// Radius at height 0 and its growth per unit height.
+    g0: f64,
+    s: f64,
+    /// The row quadratic's leading term, and its divisions.
+    qa: f64,
+    inv_2qa: f64,
+    inv_ux: f64,
+}
+
+impl Frustum {
+    /// From world points `a` (the axis at the slab's lowest height less `cutoff` and the slack)
+    /// and `b` (the highest plus both), the slab's `(h0, h1, r0, r1)`.
+    fn around(a: DVec3, b: DVec3, (h0, h1, r0, r1): (f64, f64, f64, f64), cutoff: f64) -> Self {
+        let len = (b - a).length();
+        let u = if len > 0.0 { (b - a) / len } else { DVec3::Z };
+        let s = if h1 > h0 { (r1 - r0) / (h1 - h0) } else { 0.0 };
+        // At height 0, (cutoff + slack) below h0; grown across by the cut-off and the slack.
+        let g0 = r0 - s * (cutoff + FRUSTUM_SLACK) + (cutoff + FRUSTUM_SLACK) * (1.0 + s * s).sqrt();
+        let qa = 1.0 - u.x * u.x * (1.0 + s * s);
+        Frustum { a, u, len, g0, s, qa, inv_2qa: 0.5 / qa, inv_ux: 1.0 / u.x }
+    }
+
+    /// The largest radius (at one end or the other).
+    fn widest(&self) -> f64 {
+        self.g0.max(self.g0 + self.s * self.len)
+    }
+
+    /// An x-interval of the line {(x, y, z)} holding its points within the frustum, if any.
+    #[inline]
+    fn x_interval(&self, y: f64, z: f64) -> Option<(f64, f64)> {
+        let (a, u, s) = (self.a, self.u, self.s);
+        // p(x) − a = w + x·X: the squared distance to the axis line minus the squared radius at
+        // the foot's height is quadratic in x, the height linear.
+        let w = DVec3::new(-a.x, y - a.y, z - a.z);
+        let wu = w.dot(u);
+        let g = self.g0 + s * wu;
+        let qb = 2.0 * (w.x - u.x * (wu + s * g));
+        let qc = w.length_squared() - wu * wu - g * g;
+        // Within the slab 0 ≤ (p − a)·u ≤ len.
+        let (mut l, mut h) = if u.x.abs() > 1e-12 {
+            let (s0, s1) = (-wu * self.inv_ux, (self.len - wu) * self.inv_ux);
+            (s0.min(s1), s0.max(s1))
+        } else if (0.0..=self.len).contains(&wu) {
+            (f64::NEG_INFINITY, f64::INFINITY)
+        } else {
+            return None;
+        };
+        let disc = qb * qb - 4.0 * self.qa * qc;
+        if self.qa > 1e-6 {
+            if disc < 0.0 {
+                return None;
+            }
+            let root = disc.sqrt();
+            l = l.max((-qb - root) * self.inv_2qa);
+            h = h.min((-qb + root) * self.inv_2qa);
+        } else if self.qa < -1e-6 && disc >= 0.0 {
+            // The cone is steeper than the row: outside the roots, which within the slab (the
+            // frustum is convex) leaves one side; the hull of both sides is the bound.
+            let root = disc.sqrt();
+            let (r_lo, r_hi) = ((-qb + root) * self.inv_2qa, (-qb - root) * self.inv_2qa);
+            let (left, right) = ((l, h.min(r_lo)), (l.max(r_hi), h));
+            match (left.0 <= left.1, right.0 <= right.1) {
+                (true, true) => {}
+                (true, false) => h = left.1,
+                (false, true) => l = right.0,
+                (false, false) => return None,
+            }
+        }
+        // (Otherwise, nearly level with the row or nowhere outside the cone: the whole slab.)
+        (l <= h).then_some((l, h))
     }
 }
 
@@ -870,6 +983,48 @@ mod tests {
             }
             assert!(one_pose >= 8 && cut == 16, "{spec}: {one_pose} one-pose strokes, {cut} that cut");
         }
+    }
+
+    /// A patch built for an unmeasured subtract holds, bit for bit, the full patch's value at
+    /// every voxel where either is below the band (the only voxels such a subtract reads), and
+    /// its spans lie within the full patch's: every burr family, haptic ticks and longer strokes.
+    #[test]
+    fn an_unmeasured_patch_keeps_every_value_below_the_band() {
+        let mut unit = crate::unit_random(0x5851_f42d_4c95_7f2du64);
+        let (voxel, band) = (0.05, 0.15);
+        let band32 = band as f32;
+        let specs = ["cylinder_flat_012", "cylinder_round_012", "taper_flat_012", "taper_round_014", "inverted_cone_010", "flame_016", "pear_010", "needle_012", "xmas_016", "wheel_025", "round:1"];
+        let (mut full, mut unmeasured) = (Sweep::default(), Sweep::default());
+        unmeasured.set_unmeasured(true);
+        let mut left_out = 0;
+        for spec in specs {
+            let burr = Burr::parse(spec).unwrap();
+            for case in 0..16 {
+                let tilt = DQuat::from_axis_angle(DVec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5).normalize_or(DVec3::Z), std::f64::consts::PI * unit());
+                let from = DAffine3::from_rotation_translation(tilt, DVec3::new(unit(), unit(), unit()) - 0.5);
+                let length = if case % 4 == 3 { 0.2 * unit() } else { 0.024 * unit() };
+                let to = DAffine3::from_rotation_translation(tilt, from.translation + DVec3::new(unit() - 0.5, unit() - 0.5, unit() - 0.5).normalize_or(DVec3::X) * length);
+                let done = match burr.ball_radius() {
+                    Some(r) => Some(Done::Ball(CutBall { centre: from.transform_point3(DVec3::new(0.0, 0.0, r)), radius: r })),
+                    None => Some(Done::Head(CutHead { to_tool: from.inverse(), offset: 0.0 })),
+                };
+                full.build_skipping(&burr, from, to, voxel, band, done).unwrap();
+                unmeasured.build_skipping(&burr, from, to, voxel, band, done).unwrap();
+                let (f, u) = (&full.patch, &unmeasured.patch);
+                assert_eq!((f.index_min, f.dims), (u.index_min, u.dims), "{spec} case {case}");
+                for (n, (a, b)) in f.values.iter().zip(&u.values).enumerate() {
+                    if *a < band32 || *b < band32 {
+                        assert_eq!(a.to_bits(), b.to_bits(), "{spec} case {case}: voxel {n}: {a} vs {b}");
+                    }
+                    left_out += usize::from(a != b);
+                }
+                for (row, (fs, us)) in f.spans.chunks_exact(2).zip(u.spans.chunks_exact(2)).enumerate() {
+                    assert!(us[0] == us[1] || (fs[0] <= us[0] && us[1] <= fs[1]), "{spec} case {case}: row {row}: span {us:?} beyond {fs:?}");
+                }
+            }
+        }
+        // The bound was taken: voxels between the band and the cut-off were left out.
+        assert!(left_out > 0);
     }
 
     /// A sweep reused from stroke to stroke (which puts back only the last spans) gives the

@@ -1,0 +1,81 @@
+//! An unmeasured cut (the haptic tick's) lets its sweep leave the voxels from the band up at the
+//! cut-off, which no unmeasured subtract reads: haptic-tick paths of every burr family (passes
+//! and plunges, tilted heads, a slight turn now and then) through three nested tissues, cut by a
+//! cutter that measures and one that does not, must leave every grid bit for bit the same, with
+//! the same number of voxels changed on every tick.
+mod common;
+
+use dentsim_sim::burr::{Burr, Shape};
+use dentsim_sim::cutting::cutter::Cutter;
+use dentsim_sim::cutting::removal::Feed;
+use dentsim_sim::tissues::model::TissueModel;
+use dentsim_sim::tissues::table::TissueTable;
+use dentsim_vdb::{LevelSet, Measure};
+use glam::{DAffine3, DQuat, DVec3, IVec3};
+
+const H: f64 = 0.05;
+
+/// Enamel, dentin and pulp as nested balls, made ready for cutting as a session makes them.
+fn model() -> TissueModel {
+    let mut m = TissueModel::new("nested balls", None);
+    let table = TissueTable::default();
+    for (name, r) in [("enamel", 1.6), ("dentin", 1.1), ("pulp", 0.45)] {
+        let grid = LevelSet::from_sdf(H, 3.0, DVec3::splat(-r - 0.3), DVec3::splat(r + 0.3), |p| p.length() - r).unwrap();
+        m.push(table.get(name).unwrap().clone(), grid).unwrap();
+    }
+    m.voxelize_for_cutting().unwrap();
+    m
+}
+
+fn dense(model: &TissueModel, t: usize) -> Vec<f32> {
+    let mut v = vec![0f32; 89 * 89 * 89];
+    model.tissues[t].grid.read_dense(IVec3::splat(-44), [89u32; 3], &mut v).unwrap();
+    v
+}
+
+#[test]
+fn an_unmeasured_cut_leaves_the_grids_a_measured_one_leaves() {
+    let mut unit = common::unit_random(0xd1b5_4a32_d192_ed03);
+    for shape in Shape::ALL {
+        let d = 0.8 + 0.6 * unit();
+        let len = match shape {
+            Shape::Wheel => 0.4 * d,
+            Shape::Round => d,
+            _ => (1.5 * d).max(1.0),
+        };
+        let burr = Burr::new(shape, d, Some(len)).unwrap();
+        let (mut measured, mut unmeasured) = (model(), model());
+        let (mut a, mut b) = (Cutter::default(), Cutter::default());
+        a.set_measure(Measure::Volume);
+        b.set_measure(Measure::Skip);
+        let axis = DVec3::new(unit() - 0.5, unit() - 0.5, 2.0).normalize();
+        let tilt = DQuat::from_rotation_arc(DVec3::Z, axis);
+        let across = axis.any_orthonormal_vector();
+        let mut pose = DAffine3::from_rotation_translation(tilt, axis * 1.2 - across * 0.5);
+        a.prepare(&mut measured, &burr, 0.03);
+        b.prepare(&mut unmeasured, &burr, 0.03);
+        let mut changed = 0;
+        for tick in 0..90 {
+            let (step, turn) = match tick {
+                0..=29 => (across * 0.02 - axis * 0.01, 0.0),
+                30..=59 => (-axis * 0.02, 0.0),
+                _ => (-across * 0.02, if tick % 7 == 0 { 0.01 } else { 0.0 }),
+            };
+            let rotation = DQuat::from_axis_angle(axis, turn) * DQuat::from_mat3(&pose.matrix3);
+            let next = DAffine3::from_rotation_translation(rotation, pose.translation + step);
+            let ra = a.cut_with(&mut measured, &burr, pose, next, Feed::Geometric).unwrap().changed_voxels;
+            let rb = b.cut_with(&mut unmeasured, &burr, pose, next, Feed::Geometric).unwrap().changed_voxels;
+            assert_eq!(ra, rb, "{shape:?} tick {tick}: changed voxels");
+            changed += ra;
+            pose = next;
+        }
+        assert!(changed > 0, "{shape:?}: nothing cut");
+        for t in 0..3 {
+            let (x, y) = (dense(&measured, t), dense(&unmeasured, t));
+            for (n, (p, q)) in x.iter().zip(&y).enumerate() {
+                assert_eq!(p.to_bits(), q.to_bits(), "{shape:?} tissue {t} voxel {n}: {p} vs {q}");
+            }
+            assert_eq!(measured.tissues[t].grid.content_hash(), unmeasured.tissues[t].grid.content_hash(), "{shape:?} tissue {t}: grids differ");
+        }
+    }
+}
