@@ -8,9 +8,10 @@
 //! bring the canal back).
 //!
 //! A thin canal still shows as a dark valley in the dentin: a voxel darker than the dentin by a
-//! good share of the pulp's contrast, and darker than its neighbours on both sides across at
-//! least two axes (a tube's cross-section; a wall's blurred edge curves across one direction
-//! only, and a voxel on it lies beside darker pulp). Such voxels, reached from the labelled pulp
+//! good share of the pulp's contrast, darker than its neighbours on both sides across at
+//! least two axes (a tube's cross-section), and beside no much darker voxel (the blurred wall of
+//! a wider pulp chamber is darker than the dentin and, where the wall curves, darker than its
+//! neighbours along it too; but it lies on a slope into the darker pulp). Such voxels, reached from the labelled pulp
 //! through one another (26-connected: a canal a voxel wide runs diagonally through the grid),
 //! become pulp. Only voxels whose six neighbours are all dentin or pulp are taken: the root's
 //! outer surface, darkened by what lies outside, is no canal.
@@ -24,7 +25,9 @@ use rayon::prelude::*;
 
 /// A canal voxel is darker than the dentin by at least this share of the dentin–pulp contrast.
 const MIN_DARKNESS: f64 = 0.3;
-/// ... and darker than the mean of its two neighbours along an axis (next ones, or two voxels
+/// ... and has no face neighbour darker than itself by this share.
+const MAX_DARKER_NEIGHBOUR: f64 = 0.15;
+/// ... and is darker than the mean of its two neighbours along an axis (next ones, or two voxels
 /// out) by at least this share, across at least two axes.
 const MIN_VALLEY: f64 = 0.12;
 
@@ -67,6 +70,11 @@ pub fn trace_thin_canals(vol: &Volume, labels: &mut LabelVolume, cal: &Calibrati
                 if !tooth(a) || !tooth(b) {
                     return false;
                 }
+                // On a slope into something darker: the blurred wall of a wider pulp (or a
+                // canal's side, whose middle is taken).
+                if v - f64::from(g[a].min(g[b])) >= MAX_DARKER_NEIGHBOUR * contrast {
+                    return false;
+                }
                 // The valley at two scales: a canal a voxel wide stands out from its next
                 // neighbours, one 2–3 voxels wide only from the dentin two voxels out.
                 let mut depth = 0.5 * (f64::from(g[a]) + f64::from(g[b])) - v;
@@ -90,7 +98,10 @@ pub fn trace_thin_canals(vol: &Volume, labels: &mut LabelVolume, cal: &Calibrati
             (x >= 0 && y >= 0 && z >= 0 && x < nx as i64 && y < ny as i64 && z < nz as i64).then(|| x as usize + nx * (y as usize + ny * z as usize))
         })
     };
-    let mut queue: Vec<usize> = (0..g.len()).filter(|&n| candidate[n] && neighbours(n).any(|m| l[m] == p)).collect();
+    // Seeds within two voxels of the pulp: where a canal leaves the chamber, its first voxel
+    // lies on the chamber's slope.
+    let near_pulp = |n: usize| neighbours(n).any(|m| l[m] == p || neighbours(m).any(|q| l[q] == p));
+    let mut queue: Vec<usize> = (0..g.len()).filter(|&n| candidate[n] && near_pulp(n)).collect();
     let mut taken = vec![false; g.len()];
     for &n in &queue {
         taken[n] = true;
@@ -138,4 +149,79 @@ fn enclosed_by_tooth(dims: [usize; 3], labels: &[u8], hard: &dyn Fn(u8) -> bool)
         }
     }
     labels.iter().zip(&reached).map(|(&c, &r)| !hard(c) && !r).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::phantom::gaussian_blur;
+    use crate::volume::{SourceInfo, IDENTITY};
+
+    /// Dentin with a pulp chamber (a ball) and, when `canal`, a canal 0.4 mm wide running 6 mm
+    /// down from it, voxel-averaged (4³ samples) and blurred as a 0.3 mm scan, labelled by the
+    /// midpoint threshold; enamel-free, dentin to the box's faces. Returns the volume, labels,
+    /// calibration and whether each voxel centre lies within a voxel of the canal's axis.
+    fn block(canal: bool) -> (Volume, LabelVolume, Calibration, Vec<bool>) {
+        let (h, dims) = (0.3, [24, 24, 40]);
+        let (dentin, pulp) = (2585.0f32, 1370.0f32);
+        let (chamber, r_chamber, r_canal) = ([3.5, 3.5, 9.0], 1.5, 0.2);
+        let inside = |p: [f64; 3]| {
+            let ball = (0..3).map(|c| (p[c] - chamber[c]).powi(2)).sum::<f64>() < r_chamber * r_chamber;
+            let tube = canal && p[2] <= chamber[2] && p[2] >= chamber[2] - 7.5 && (p[0] - chamber[0]).powi(2) + (p[1] - chamber[1]).powi(2) < r_canal * r_canal;
+            ball || tube
+        };
+        let mut values = vec![0f32; dims[0] * dims[1] * dims[2]];
+        let mut near_axis = vec![false; values.len()];
+        for (n, v) in values.iter_mut().enumerate() {
+            let ijk = [n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1])];
+            let p = ijk.map(|q| q as f64 * h);
+            near_axis[n] = canal && p[2] <= chamber[2] && ((p[0] - chamber[0]).powi(2) + (p[1] - chamber[1]).powi(2)).sqrt() <= 1.01 * h;
+            let mut share = 0.0;
+            for s in 0..64 {
+                let sub = [s % 4, (s / 4) % 4, s / 16].map(|q| (q as f64 + 0.5) / 4.0 - 0.5);
+                share += f32::from(u8::from(inside([0, 1, 2].map(|c| (ijk[c] as f64 + sub[c]) * h))));
+            }
+            *v = dentin + (pulp - dentin) * share / 64.0;
+        }
+        gaussian_blur(&mut values, dims, [0.5; 3]);
+        let vol = Volume { dims, spacing: [h; 3], origin: [0.0; 3], direction: IDENTITY, values, source: SourceInfo::default() };
+        let mut labels = vol.label_volume();
+        let mid = 0.5 * (dentin + pulp);
+        for (l, v) in labels.labels.iter_mut().zip(&vol.values) {
+            *l = if *v < mid { Label::Pulp } else { Label::Dentin } as u8;
+        }
+        let cal = Calibration::manual(&[(Label::Dentin, f64::from(dentin)), (Label::Pulp, f64::from(pulp))]).unwrap();
+        (vol, labels, cal, near_axis)
+    }
+
+    #[test]
+    fn a_canal_below_the_threshold_is_traced_from_the_chamber() {
+        let (vol, mut labels, cal, near_axis) = block(true);
+        let [nx, ny, _] = vol.dims;
+        let slices_with_pulp = |labels: &LabelVolume| (0..=24).filter(|k| (0..nx * ny).any(|m| labels.labels[m + nx * ny * (30 - k)] == Label::Pulp as u8)).count();
+        let before = slices_with_pulp(&labels);
+        // Part of the canal's grey falls in an outside tissue's range: segmentation labels it so.
+        let slice = nx * ny * 15..nx * ny * 16;
+        let bone: Vec<usize> = slice.min_by(|&a, &b| vol.values[a].total_cmp(&vol.values[b])).into_iter().collect();
+        for &n in &bone {
+            labels.labels[n] = Label::BoneCancellous as u8;
+        }
+        let added = trace_thin_canals(&vol, &mut labels, &cal);
+        let after = slices_with_pulp(&labels);
+        // The canal runs 25 slices below the chamber's centre (7.5 mm), the chamber 5 of them.
+        assert!(before <= 8, "the threshold sees the canal's top only: {before} slices");
+        assert!(after >= 24, "traced: {after} of 25 slices hold pulp ({added} voxels)");
+        let off_axis = (0..labels.labels.len()).filter(|&n| labels.labels[n] == Label::Pulp as u8 && n / (nx * ny) < 25 && !near_axis[n]).count();
+        assert_eq!(off_axis, 0, "pulp taken away from the canal");
+        assert!(bone.iter().all(|&n| labels.labels[n] == Label::Pulp as u8), "an enclosed canal voxel with bone's label is the canal");
+    }
+
+    #[test]
+    fn a_chamber_alone_gains_nothing() {
+        let (vol, mut labels, cal, _) = block(false);
+        let pulp = labels.count(Label::Pulp);
+        assert!(pulp > 0);
+        assert_eq!(trace_thin_canals(&vol, &mut labels, &cal), 0, "the chamber's blurred wall is no canal");
+        assert_eq!(labels.count(Label::Pulp), pulp);
+    }
 }
