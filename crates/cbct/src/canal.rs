@@ -9,7 +9,7 @@
 //!
 //! A thin canal still shows as a dark valley in the dentin: a voxel darker than the dentin by a
 //! good share of the pulp's contrast, darker than its neighbours on both sides across at
-//! least two axes (a tube's cross-section), and beside no much darker voxel (the blurred wall of
+//! least two axes (a tube's cross-section), and beside no much darker pulp voxel (the blurred wall of
 //! a wider pulp chamber is darker than the dentin and, where the wall curves, darker than its
 //! neighbours along it too; but it lies on a slope into the darker pulp). Such voxels, reached from the labelled pulp
 //! through one another (26-connected: a canal a voxel wide runs diagonally through the grid),
@@ -25,7 +25,7 @@ use rayon::prelude::*;
 
 /// A canal voxel is darker than the dentin by at least this share of the dentin–pulp contrast.
 const MIN_DARKNESS: f64 = 0.3;
-/// ... and has no face neighbour darker than itself by this share.
+/// ... and has no face neighbour labelled pulp darker than itself by this share.
 const MAX_DARKER_NEIGHBOUR: f64 = 0.15;
 /// ... and is darker than the mean of its two neighbours along an axis (next ones, or two voxels
 /// out) by at least this share, across at least two axes.
@@ -70,9 +70,8 @@ pub fn trace_thin_canals(vol: &Volume, labels: &mut LabelVolume, cal: &Calibrati
                 if !tooth(a) || !tooth(b) {
                     return false;
                 }
-                // On a slope into something darker: the blurred wall of a wider pulp (or a
-                // canal's side, whose middle is taken).
-                if v - f64::from(g[a].min(g[b])) >= MAX_DARKER_NEIGHBOUR * contrast {
+                // On a slope into darker pulp: the blurred wall of a wider pulp.
+                if [a, b].iter().any(|&m| l[m] == p && v - f64::from(g[m]) >= MAX_DARKER_NEIGHBOUR * contrast) {
                     return false;
                 }
                 // The valley at two scales: a canal a voxel wide stands out from its next
