@@ -8,13 +8,15 @@
 //! bring the canal back).
 //!
 //! A thin canal still shows as a dark valley in the dentin: a voxel darker than the dentin by a
-//! good share of the pulp's contrast, darker than its neighbours on both sides across at
-//! least two axes (a tube's cross-section), and beside no much darker pulp voxel (the blurred wall of
-//! a wider pulp chamber is darker than the dentin and, where the wall curves, darker than its
-//! neighbours along it too; but it lies on a slope into the darker pulp). Such voxels, reached from the labelled pulp
-//! through one another (26-connected: a canal a voxel wide runs diagonally through the grid),
-//! become pulp. Only voxels whose six neighbours are all dentin or pulp are taken: the root's
-//! outer surface, darkened by what lies outside, is no canal.
+//! good share of the pulp's contrast, darker than its neighbours on both sides across at least
+//! two axes (a tube's cross-section), and not on a slope from darker pulp to brighter dentin
+//! (the blurred wall of a wider pulp chamber is darker than the dentin and, where the wall
+//! curves, darker than its neighbours along it too; but it lies on that slope). Such voxels,
+//! reached from the labelled pulp through one another (26-connected: a canal a voxel wide runs
+//! diagonally through the grid), become pulp. Only voxels whose six neighbours are all the
+//! tooth's are taken: the root's outer surface, darkened by what lies outside, is no canal.
+//! Canal voxels whose grey fell in an outside tissue's range (bone) and that the outside cannot
+//! reach count as the tooth's.
 //! Cost: one distance transform (the pulp's grey) and one linear pass over the cropped tooth.
 
 use crate::calibrate::Calibration;
@@ -25,14 +27,17 @@ use rayon::prelude::*;
 
 /// A canal voxel is darker than the dentin by at least this share of the dentin–pulp contrast.
 const MIN_DARKNESS: f64 = 0.3;
-/// ... and has no face neighbour labelled pulp darker than itself by this share.
+/// ... and is not on a slope from pulp to dentin: a pulp neighbour darker than it by this share
+/// and the opposite neighbour brighter by as much.
 const MAX_DARKER_NEIGHBOUR: f64 = 0.15;
 /// ... and is darker than the mean of its two neighbours along an axis (next ones, or two voxels
 /// out) by at least this share, across at least two axes.
 const MIN_VALLEY: f64 = 0.12;
 
-/// Relabels dentin voxels on thin root canals (see the module comment) as pulp; returns how
-/// many. Does nothing without labelled pulp or when the pulp is not darker than the dentin.
+/// Relabels dentin voxels on thin root canals (see the module comment) as pulp, and voxels the
+/// tooth encloses as pulp or dentin by the midpoint of their grey values; returns how many
+/// became pulp. Does nothing without labelled pulp or when the pulp is not darker than the
+/// dentin.
 pub fn trace_thin_canals(vol: &Volume, labels: &mut LabelVolume, cal: &Calibration) -> usize {
     let (p, d) = (Label::Pulp as u8, Label::Dentin as u8);
     if labels.labels.len() != vol.values.len() || !labels.labels.contains(&p) {
@@ -70,8 +75,11 @@ pub fn trace_thin_canals(vol: &Volume, labels: &mut LabelVolume, cal: &Calibrati
                 if !tooth(a) || !tooth(b) {
                     return false;
                 }
-                // On a slope into darker pulp: the blurred wall of a wider pulp.
-                if [a, b].iter().any(|&m| l[m] == p && v - f64::from(g[m]) >= MAX_DARKER_NEIGHBOUR * contrast) {
+                // On a slope from darker pulp down to brighter dentin: the blurred wall of a
+                // wider pulp. (Between two stretches of a canal, the voxel beyond is dark too.)
+                let slope = MAX_DARKER_NEIGHBOUR * contrast;
+                let (ga, gb) = (f64::from(g[a]), f64::from(g[b]));
+                if (l[a] == p && v - ga >= slope && gb - v >= slope) || (l[b] == p && v - gb >= slope && ga - v >= slope) {
                     return false;
                 }
                 // The valley at two scales: a canal a voxel wide stands out from its next
@@ -113,12 +121,21 @@ pub fn trace_thin_canals(vol: &Volume, labels: &mut LabelVolume, cal: &Calibrati
             }
         }
     }
+    // The rest of what the tooth encloses is its, as segmentation's threshold reads it: the
+    // pulp's where darker than midway to the dentin (the closing that walls canals in had kept
+    // these from its cavities), else the dentin's. Left as bone, they were holes in the tooth.
+    let mid = 0.5 * (pulp + dentin);
     let mut count = 0;
-    for (lab, t) in labels.labels.iter_mut().zip(&taken) {
-        if *t {
-            *lab = p;
-            count += 1;
-        }
+    for n in 0..g.len() {
+        let to = if taken[n] || (enclosed[n] && f64::from(g[n]) < mid) {
+            p
+        } else if enclosed[n] {
+            d
+        } else {
+            continue;
+        };
+        labels.labels[n] = to;
+        count += usize::from(to == p);
     }
     count
 }
@@ -220,7 +237,11 @@ mod tests {
         let (vol, mut labels, cal, _) = block(false);
         let pulp = labels.count(Label::Pulp);
         assert!(pulp > 0);
+        // A voxel of dentin's grey labelled bone, walled in by the tooth: a hole in it.
+        let hole = 5 + 24 * (5 + 24 * 5);
+        labels.labels[hole] = Label::BoneCancellous as u8;
         assert_eq!(trace_thin_canals(&vol, &mut labels, &cal), 0, "the chamber's blurred wall is no canal");
         assert_eq!(labels.count(Label::Pulp), pulp);
+        assert_eq!(labels.labels[hole], Label::Dentin as u8, "what the tooth encloses is the tooth's");
     }
 }
