@@ -13,9 +13,9 @@
 //! within 3 voxels of the tissue, cut where any third label (enamel, bone, air) is nearer than the
 //! tissue, so that the third tissue's own blur stays out of the sum. Reference grey values: the
 //! surround's measured in the shell 4–8 voxels out; the tissue's where it is at least 3 voxels
-//! deep, else the calibration's, bounded by the voxels 2 deep (a thin pulp has no voxel free of
-//! the dentin's blur; its measured grey would be biased toward the dentin's and the volume with
-//! it). Noise averages out: the sum is not clamped to 0..1.
+//! deep, else the calibration's, bounded on both sides by the voxels 2 deep (a thin pulp has no voxel free of the dentin's blur; its
+//! measured grey would be biased toward the dentin's and the volume with it). Noise averages
+//! out: the sum is not clamped to 0..1.
 //! Cost: three Euclidean distance transforms and a few linear passes over the (cropped) volume.
 
 use crate::Label;
@@ -32,6 +32,8 @@ const MIN_REFERENCE_VOXELS: usize = 64;
 /// Depth and count of the voxels that bound a predicted grey ([`reference_grey`]).
 const NEAR_PURE_DEPTH_VOXELS: f32 = 2.0;
 const MIN_NEAR_PURE_VOXELS: usize = 16;
+/// Voxels from this depth to 2 deep: how fast the blur's share falls.
+const SHALLOWER_DEPTH_VOXELS: f32 = 1.4;
 
 /// The partial-volume measure of one tissue.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -84,7 +86,8 @@ pub fn enclosed_volume(vol: &Volume, labels: &LabelVolume, tissue: Label, surrou
 /// The tissue's own grey and whether it was measured: the median of its voxels at least 3
 /// voxels deep (`depth`, mm, from the voxels outside it) when there are enough; else the
 /// calibration's `predicted` grey, unless that lies beyond the median of the voxels 2 deep on
-/// the surround's side. The scanner's blur can only pull a tissue's deepest voxels toward its
+/// the surround's side, or beyond them by more than their step from the voxels a little
+/// shallower on the other side (then that bound is taken). The scanner's blur can only pull a tissue's deepest voxels toward its
 /// surround's grey, never past the tissue's own: a prediction brighter than a dark pulp's
 /// deepest voxels is wrong (an extracted canine in water: the fit's line, bent by a low enamel
 /// peak, put the pulp at 865 where its voxels 2 deep show 302; the measure read +70 %), and those
@@ -101,6 +104,21 @@ fn reference_grey(vol: &Volume, is_tissue: &[bool], depth: &[f32], h: f32, predi
         let near = median(near);
         if (predicted - near) * (surround - near) > 0.0 {
             return (near, true);
+        }
+        // The blur's share in a voxel falls faster than geometrically with its depth, so the
+        // voxels 2 deep are nearer the tissue's own grey than the step from those a little
+        // shallower: a prediction farther off than that is wrong too (an extracted premolar in
+        // wax: 1207 where the pulp is 1250, its voxels 2 deep 1250 and shallower 1266).
+        let shallower: Vec<f32> = (0..vol.values.len())
+            .filter(|&n| is_tissue[n] && (SHALLOWER_DEPTH_VOXELS * h..NEAR_PURE_DEPTH_VOXELS * h).contains(&depth[n]))
+            .map(|n| vol.values[n])
+            .collect();
+        if shallower.len() >= MIN_NEAR_PURE_VOXELS {
+            let step = median(shallower) - near;
+            let farthest = near - step;
+            if step * (surround - near) > 0.0 && (predicted - farthest) * (surround - near) < 0.0 {
+                return (farthest, true);
+            }
         }
     }
     (predicted, false)
