@@ -87,6 +87,8 @@ pub struct Timings {
     pub calibrate: f64,
     pub segment: f64,
     pub crop: f64,
+    /// Tracing thin root canals ([`trace_thin_canals`]).
+    pub canals: f64,
     pub level_sets: f64,
 }
 
@@ -212,8 +214,10 @@ impl TissuesFromScan {
         let tooth_scan = crop(scan, &region).map_err(cbct)?;
         let mut tooth_labels = crop_labels(&labels, &region).map_err(cbct)?;
         let specks = keep_largest_component(&mut tooth_labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
-        let canal_voxels = trace_thin_canals(&tooth_scan, &mut tooth_labels, &calibration);
         seconds.crop = clock.elapsed().as_secs_f64();
+        let clock = Instant::now();
+        let canal_voxels = trace_thin_canals(&tooth_scan, &mut tooth_labels, &calibration);
+        seconds.canals = clock.elapsed().as_secs_f64();
 
         let clock = Instant::now();
         let source = format!("{} {}", scan.source.format, scan.source.path);
