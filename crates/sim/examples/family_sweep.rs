@@ -1,7 +1,7 @@
 //! The phantom family's full sweep through the whole pipeline: each case's volume error, mean
 //! surface distance and mean normal error per tissue against the analytic tooth, ✗ where the
 //! issue's goals (2 % / 2 % / 5 %, 0.05 mm, 5°) are missed.
-//! `cargo run --release -p dentsim-sim --example family_sweep [quick] [ideal]`; `ideal`: every
+//! `cargo run --release -p dentsim-sim --example family_sweep [quick] [ideal]`; `pulp`: the pulp's voxels and partial-volume measure too; `ideal`: every
 //! scan without noise, point spread or integer storage (only the voxels' own averaging), what
 //! the scan's resolution alone allows; `floor`: the analytic level sets' own figures (the
 //! metric's floor); `resolution`: the analytic tissues blurred by each scan's point spread.
@@ -27,7 +27,12 @@ fn main() {
     let (mut met, mut all) = (0, 0);
     let (mut volume, mut surface, mut normal) = (0, 0, 0);
     let ideal = std::env::args().any(|a| a == "ideal");
+    // `only=TEXT`: the cases whose name holds TEXT.
+    let only: Vec<String> = std::env::args().filter_map(|a| a.strip_prefix("only=").map(str::to_owned)).collect();
     for mut case in dentsim_cbct::phantom::family(!quick) {
+        if !only.is_empty() && !only.iter().any(|o| case.name.contains(o.as_str())) {
+            continue;
+        }
         if ideal {
             case.spec.noise_sigma = 0.0;
             case.spec.blur_sigma_mm = 0.0;
@@ -36,6 +41,9 @@ fn main() {
         match family::run(&case, 0.05) {
             Ok(r) => {
                 family::print(&r);
+                if let (true, Some((truth, voxels, measure, offset))) = (std::env::args().any(|a| a == "pulp"), r.pulp) {
+                    println!("    pulp: true {truth:.2} mm³, voxels {voxels:.2} ({:+.1} %), measure {measure:.2} ({:+.1} %), offset {offset:+.3} mm", 100.0 * (voxels / truth - 1.0), 100.0 * (measure / truth - 1.0));
+                }
                 met += r.tissues.iter().filter(|t| family::meets_goals(t)).count();
                 volume += r.tissues.iter().filter(|t| t.volume_error.abs() <= if t.label == dentsim_cbct::Label::Pulp { 0.05 } else { 0.02 }).count();
                 surface += r.tissues.iter().filter(|t| t.surface_mm <= 0.05).count();

@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use dentsim_cbct::phantom::gaussian_blur;
 use dentsim_cbct::volume::face_neighbours;
-use dentsim_cbct::{calibrate, crop, crop_labels, enclosed_volume, find_teeth, segment, tooth_box, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
+use dentsim_cbct::{calibrate, crop, trace_thin_canals, crop_labels, enclosed_volume, find_teeth, segment, tooth_box, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
 
 use dentsim_vdb::LevelSet;
 use serde::Serialize;
@@ -71,6 +71,8 @@ pub struct ScanReport {
     /// Dentin voxels outside the main dentin body, given to the enamel they touch (else to the
     /// bone: not the tooth).
     pub dentin_specks_relabelled: usize,
+    /// Dentin voxels on thin root canals taken as pulp ([`dentsim_cbct::canal`]).
+    pub canal_voxels_traced: usize,
     pub calibration: Calibration,
     /// With every tooth segmented ([`TissuesFromScan::run_all`]): this tooth as found in the
     /// scan, and its place in the list (1 = largest).
@@ -85,6 +87,8 @@ pub struct Timings {
     pub calibrate: f64,
     pub segment: f64,
     pub crop: f64,
+    /// Tracing thin root canals ([`trace_thin_canals`]).
+    pub canals: f64,
     pub level_sets: f64,
 }
 
@@ -211,6 +215,9 @@ impl TissuesFromScan {
         let mut tooth_labels = crop_labels(&labels, &region).map_err(cbct)?;
         let specks = keep_largest_component(&mut tooth_labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
         seconds.crop = clock.elapsed().as_secs_f64();
+        let clock = Instant::now();
+        let canal_voxels = trace_thin_canals(&tooth_scan, &mut tooth_labels, &calibration);
+        seconds.canals = clock.elapsed().as_secs_f64();
 
         let clock = Instant::now();
         let source = format!("{} {}", scan.source.format, scan.source.path);
@@ -252,6 +259,7 @@ impl TissuesFromScan {
             crop_min: region.min,
             crop_max: region.max,
             dentin_specks_relabelled: specks,
+            canal_voxels_traced: canal_voxels,
             calibration,
             found: None,
             tissues,

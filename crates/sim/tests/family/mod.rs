@@ -25,6 +25,9 @@ pub struct CaseResult {
     pub tissues: Vec<TissueError>,
     pub confidence: f64,
     pub seconds: f64,
+    /// The pulp's true volume, its scan voxels' volume, its partial-volume measure and the
+    /// surface's offset to it (mm³, mm³, mm³, mm): where the pulp's error comes from.
+    pub pulp: Option<(f64, f64, f64, f64)>,
 }
 
 /// The goals: enamel and dentin volume within 2 %, pulp within 5 %, mean surface
@@ -49,7 +52,12 @@ pub fn run(case: &FamilyCase, voxel_mm: f64) -> Result<CaseResult, String> {
         let (dist, angle) = mesh_errors(&tissue.grid.to_mesh(), sdf);
         tissues.push(TissueError { label, volume_error: tissue.grid.volume() / truth[label as usize] - 1.0, surface_mm: dist, normal_deg: angle });
     }
-    Ok(CaseResult { name: case.name.clone(), tissues, confidence: report.calibration.confidence, seconds: start.elapsed().as_secs_f64() })
+    let voxel_mm3 = scan.voxel_volume_mm3();
+    let pulp = report.tissues.iter().find(|t| t.name == Label::Pulp.name()).map(|t| {
+        let measure = t.partial_volume.as_ref().map_or(f64::NAN, |m| m.volume_mm3);
+        (truth[Label::Pulp as usize], t.scan_voxels as f64 * voxel_mm3, measure, t.surface_offset_mm)
+    });
+    Ok(CaseResult { name: case.name.clone(), tissues, confidence: report.calibration.confidence, seconds: start.elapsed().as_secs_f64(), pulp })
 }
 
 pub fn print(r: &CaseResult) {
