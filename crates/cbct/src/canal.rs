@@ -170,8 +170,6 @@ fn enclosed_by_tooth(dims: [usize; 3], labels: &[u8], hard: &dyn Fn(u8) -> bool)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::phantom::gaussian_blur;
-    use crate::volume::{SourceInfo, IDENTITY};
 
     /// Dentin with a pulp chamber (a ball) and, when `canal`, a canal 0.4 mm wide running 6 mm
     /// down from it, voxel-averaged (4³ samples) and blurred as a 0.3 mm scan, labelled by the
@@ -179,34 +177,19 @@ mod tests {
     /// calibration and whether each voxel centre lies within a voxel of the canal's axis.
     fn block(canal: bool) -> (Volume, LabelVolume, Calibration, Vec<bool>) {
         let (h, dims) = (0.3, [24, 24, 40]);
-        let (dentin, pulp) = (2585.0f32, 1370.0f32);
         let (chamber, r_chamber, r_canal) = ([3.5, 3.5, 9.0], 1.5, 0.2);
         let inside = |p: [f64; 3]| {
             let ball = (0..3).map(|c| (p[c] - chamber[c]).powi(2)).sum::<f64>() < r_chamber * r_chamber;
             let tube = canal && p[2] <= chamber[2] && p[2] >= chamber[2] - 7.5 && (p[0] - chamber[0]).powi(2) + (p[1] - chamber[1]).powi(2) < r_canal * r_canal;
             ball || tube
         };
-        let mut values = vec![0f32; dims[0] * dims[1] * dims[2]];
-        let mut near_axis = vec![false; values.len()];
-        for (n, v) in values.iter_mut().enumerate() {
-            let ijk = [n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1])];
-            let p = ijk.map(|q| q as f64 * h);
-            near_axis[n] = canal && p[2] <= chamber[2] && ((p[0] - chamber[0]).powi(2) + (p[1] - chamber[1]).powi(2)).sqrt() <= 1.01 * h;
-            let mut share = 0.0;
-            for s in 0..64 {
-                let sub = [s % 4, (s / 4) % 4, s / 16].map(|q| (q as f64 + 0.5) / 4.0 - 0.5);
-                share += f32::from(u8::from(inside([0, 1, 2].map(|c| (ijk[c] as f64 + sub[c]) * h))));
-            }
-            *v = dentin + (pulp - dentin) * share / 64.0;
-        }
-        gaussian_blur(&mut values, dims, [0.5; 3]);
-        let vol = Volume { dims, spacing: [h; 3], origin: [0.0; 3], direction: IDENTITY, values, source: SourceInfo::default() };
-        let mut labels = vol.label_volume();
-        let mid = 0.5 * (dentin + pulp);
-        for (l, v) in labels.labels.iter_mut().zip(&vol.values) {
-            *l = if *v < mid { Label::Pulp } else { Label::Dentin } as u8;
-        }
-        let cal = Calibration::manual(&[(Label::Dentin, f64::from(dentin)), (Label::Pulp, f64::from(pulp))]).unwrap();
+        let near_axis = (0..dims[0] * dims[1] * dims[2])
+            .map(|n| {
+                let p = [n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1])].map(|q| q as f64 * h);
+                canal && p[2] <= chamber[2] && ((p[0] - chamber[0]).powi(2) + (p[1] - chamber[1]).powi(2)).sqrt() <= 1.01 * h
+            })
+            .collect();
+        let (vol, labels, cal, _) = crate::test_scans::pulp_in_dentin(h, dims, 0.5, inside);
         (vol, labels, cal, near_axis)
     }
 

@@ -13,6 +13,8 @@ pub mod partial_volume;
 pub mod phantom;
 pub mod roi;
 pub mod segment;
+#[cfg(test)]
+mod test_scans;
 pub mod volume;
 
 

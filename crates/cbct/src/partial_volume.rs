@@ -212,8 +212,6 @@ fn lower_envelope(f: &[f64], w: f64) -> Vec<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::phantom::gaussian_blur;
-    use crate::volume::{SourceInfo, IDENTITY};
 
     /// A canal 1.5 voxels in radius (a capsule) in dentin, voxel-averaged and blurred like a scan:
     /// the midpoint threshold loses a good part of it, the partial-volume measure does not.
@@ -222,32 +220,12 @@ mod tests {
         let (h, r, half_len) = (0.2, 0.3, 2.0);
         let dims = [24, 24, 36];
         let centre = [2.3, 2.4, 3.5];
-        let (dentin, pulp) = (2585.0f32, 1370.0f32);
         let inside = |p: [f64; 3]| {
             let z = (p[2] - centre[2]).clamp(-half_len, half_len);
             (p[0] - centre[0]).powi(2) + (p[1] - centre[1]).powi(2) + (p[2] - centre[2] - z).powi(2) < r * r
         };
-        let mut values = vec![0f32; dims[0] * dims[1] * dims[2]];
         // The canal's volume as the voxels hold it (4³ samples each; within 1 % of π r² (2l + 4r/3)).
-        let mut truth = 0.0;
-        for (n, v) in values.iter_mut().enumerate() {
-            let ijk = [n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1])];
-            let mut share = 0.0;
-            for s in 0..64 {
-                let sub = [s % 4, (s / 4) % 4, s / 16].map(|q| (q as f64 + 0.5) / 4.0 - 0.5);
-                share += f32::from(u8::from(inside([0, 1, 2].map(|c| (ijk[c] as f64 + sub[c]) * h))));
-            }
-            truth += f64::from(share) / 64.0 * h * h * h;
-            *v = dentin + (pulp - dentin) * share / 64.0;
-        }
-        gaussian_blur(&mut values, dims, [0.75; 3]);
-        let vol = Volume { dims, spacing: [h; 3], origin: [0.0; 3], direction: IDENTITY, values, source: SourceInfo::default() };
-        let mut labels = vol.label_volume();
-        let mid = 0.5 * (dentin + pulp);
-        for (l, v) in labels.labels.iter_mut().zip(&vol.values) {
-            *l = if *v < mid { Label::Pulp } else { Label::Dentin } as u8;
-        }
-        let cal = Calibration::manual(&[(Label::Dentin, f64::from(dentin)), (Label::Pulp, f64::from(pulp))]).unwrap();
+        let (vol, labels, cal, truth) = crate::test_scans::pulp_in_dentin(h, dims, 0.75, inside);
         let counted = labels.count(Label::Pulp) as f64 * vol.voxel_volume_mm3();
         let measure = enclosed_volume(&vol, &labels, Label::Pulp, Label::Dentin, &cal).unwrap();
         assert!(!measure.tissue_grey_measured, "no voxel of a 0.3 mm canal is free of the blur");

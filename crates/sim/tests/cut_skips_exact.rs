@@ -5,34 +5,13 @@
 //! the same, with the same changes and (measured) the same removed volume to the bit.
 mod common;
 
-use dentsim_sim::burr::{Burr, Shape};
+use dentsim_sim::burr::Shape;
 use dentsim_sim::cutting::sweep::{CutBall, CutHead, Done, Sweep};
 use dentsim_sim::tissues::model::TissueModel;
-use dentsim_sim::tissues::table::TissueTable;
-use dentsim_vdb::{LevelSet, Measure};
-use glam::{DAffine3, DQuat, DVec3, IVec3};
+use dentsim_vdb::Measure;
+use glam::{DAffine3, DQuat, DVec3};
 
-const H: f64 = 0.05;
-
-/// Enamel, dentin and pulp as nested balls, made ready for cutting as a session makes them.
-fn model() -> TissueModel {
-    let mut m = TissueModel::new("nested balls", None);
-    let table = TissueTable::default();
-    for (name, r) in [("enamel", 1.6), ("dentin", 1.1), ("pulp", 0.45)] {
-        let grid = LevelSet::from_sdf(H, 3.0, DVec3::splat(-r - 0.3), DVec3::splat(r + 0.3), |p| p.length() - r).unwrap();
-        m.push(table.get(name).unwrap().clone(), grid).unwrap();
-    }
-    m.voxelize_for_cutting().unwrap();
-    m
-}
-
-fn dense(model: &TissueModel, t: usize) -> Vec<f32> {
-    let lo = IVec3::splat(-44);
-    let dims = [89u32; 3];
-    let mut v = vec![0f32; 89 * 89 * 89];
-    model.tissues[t].grid.read_dense(lo, dims, &mut v).unwrap();
-    v
-}
+const H: f64 = common::VOXEL;
 
 #[test]
 fn skipped_blocks_and_unread_voxels_change_no_grid() {
@@ -41,14 +20,8 @@ fn skipped_blocks_and_unread_voxels_change_no_grid() {
     let cutoff = (band + 1.5 * H) as f32;
     let (mut skipped_blocks, mut ticks) = (0usize, 0usize);
     for shape in Shape::ALL {
-        let d = 0.8 + 0.6 * unit();
-        let len = match shape {
-            Shape::Wheel => 0.4 * d,
-            Shape::Round => d,
-            _ => (1.5 * d).max(1.0),
-        };
-        let burr = Burr::new(shape, d, Some(len)).unwrap();
-        let (mut skipping, mut reference, mut unmeasured) = (model(), model(), model());
+        let burr = common::random_burr(shape, &mut unit);
+        let (mut skipping, mut reference, mut unmeasured) = (common::nested_balls_model(), common::nested_balls_model(), common::nested_balls_model());
         let (mut marked, mut every) = (Sweep::default(), Sweep::default());
         let mut log = Vec::new();
         // A tilted head entering the enamel from above, a pass across, a plunge along its axis,
@@ -99,7 +72,7 @@ fn skipped_blocks_and_unread_voxels_change_no_grid() {
             pose = next;
         }
         for t in 0..3 {
-            let (a, b, c) = (dense(&skipping, t), dense(&reference, t), dense(&unmeasured, t));
+            let (a, b, c) = (common::nested_balls_dense(&skipping, t), common::nested_balls_dense(&reference, t), common::nested_balls_dense(&unmeasured, t));
             for (n, ((x, y), z)) in a.iter().zip(&b).zip(&c).enumerate() {
                 assert_eq!(x.to_bits(), y.to_bits(), "{shape:?} tissue {t} voxel {n}: {x} vs {y}");
                 assert_eq!(x.to_bits(), z.to_bits(), "{shape:?} tissue {t} voxel {n}: {x} vs {z} unmeasured");
@@ -109,7 +82,7 @@ fn skipped_blocks_and_unread_voxels_change_no_grid() {
             assert_eq!(hash(&skipping), hash(&unmeasured), "{shape:?} tissue {t}: grids differ unmeasured");
         }
         // The path cut something in every tissue it reached.
-        assert!(dense(&skipping, 0) != dense(&model(), 0), "{shape:?}: nothing cut");
+        assert!(common::nested_balls_dense(&skipping, 0) != common::nested_balls_dense(&common::nested_balls_model(), 0), "{shape:?}: nothing cut");
     }
     // The skip was taken: some ticks handed the subtract fewer voxels than the old rule did.
     assert!(skipped_blocks * 10 >= ticks, "{skipped_blocks} of {ticks} ticks skipped a block");

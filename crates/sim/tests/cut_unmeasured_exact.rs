@@ -5,46 +5,18 @@
 //! the same number of voxels changed on every tick.
 mod common;
 
-use dentsim_sim::burr::{Burr, Shape};
+use dentsim_sim::burr::Shape;
 use dentsim_sim::cutting::cutter::Cutter;
 use dentsim_sim::cutting::removal::Feed;
-use dentsim_sim::tissues::model::TissueModel;
-use dentsim_sim::tissues::table::TissueTable;
-use dentsim_vdb::{LevelSet, Measure};
-use glam::{DAffine3, DQuat, DVec3, IVec3};
-
-const H: f64 = 0.05;
-
-/// Enamel, dentin and pulp as nested balls, made ready for cutting as a session makes them.
-fn model() -> TissueModel {
-    let mut m = TissueModel::new("nested balls", None);
-    let table = TissueTable::default();
-    for (name, r) in [("enamel", 1.6), ("dentin", 1.1), ("pulp", 0.45)] {
-        let grid = LevelSet::from_sdf(H, 3.0, DVec3::splat(-r - 0.3), DVec3::splat(r + 0.3), |p| p.length() - r).unwrap();
-        m.push(table.get(name).unwrap().clone(), grid).unwrap();
-    }
-    m.voxelize_for_cutting().unwrap();
-    m
-}
-
-fn dense(model: &TissueModel, t: usize) -> Vec<f32> {
-    let mut v = vec![0f32; 89 * 89 * 89];
-    model.tissues[t].grid.read_dense(IVec3::splat(-44), [89u32; 3], &mut v).unwrap();
-    v
-}
+use dentsim_vdb::Measure;
+use glam::{DAffine3, DQuat, DVec3};
 
 #[test]
 fn an_unmeasured_cut_leaves_the_grids_a_measured_one_leaves() {
     let mut unit = common::unit_random(0xd1b5_4a32_d192_ed03);
     for shape in Shape::ALL {
-        let d = 0.8 + 0.6 * unit();
-        let len = match shape {
-            Shape::Wheel => 0.4 * d,
-            Shape::Round => d,
-            _ => (1.5 * d).max(1.0),
-        };
-        let burr = Burr::new(shape, d, Some(len)).unwrap();
-        let (mut measured, mut unmeasured) = (model(), model());
+        let burr = common::random_burr(shape, &mut unit);
+        let (mut measured, mut unmeasured) = (common::nested_balls_model(), common::nested_balls_model());
         let (mut a, mut b) = (Cutter::default(), Cutter::default());
         a.set_measure(Measure::Volume);
         b.set_measure(Measure::Skip);
@@ -71,7 +43,7 @@ fn an_unmeasured_cut_leaves_the_grids_a_measured_one_leaves() {
         }
         assert!(changed > 0, "{shape:?}: nothing cut");
         for t in 0..3 {
-            let (x, y) = (dense(&measured, t), dense(&unmeasured, t));
+            let (x, y) = (common::nested_balls_dense(&measured, t), common::nested_balls_dense(&unmeasured, t));
             for (n, (p, q)) in x.iter().zip(&y).enumerate() {
                 assert_eq!(p.to_bits(), q.to_bits(), "{shape:?} tissue {t} voxel {n}: {p} vs {q}");
             }

@@ -6,7 +6,8 @@ use dentsim_sim::haptics::tick::{HapticCore, TickOutput};
 use dentsim_sim::tissues::model::TissueModel;
 use dentsim_sim::tissues::table::TissueTable;
 use dentsim_vdb::{LevelSet, TriMesh};
-use glam::{DAffine3, DVec3};
+use dentsim_sim::burr::{Burr, Shape};
+use glam::{DAffine3, DVec3, IVec3};
 
 pub const VOXEL: f64 = 0.05;
 
@@ -76,4 +77,35 @@ pub fn triangle_set(m: &TriMesh) -> Vec<[[u32; 3]; 3]> {
         .collect();
     out.sort_unstable();
     out
+}
+
+/// Enamel, dentin and pulp as nested balls (radii 1.6, 1.1, 0.45 mm), made ready for cutting as
+/// a session makes them.
+pub fn nested_balls_model() -> TissueModel {
+    let mut m = TissueModel::new("nested balls", None);
+    let table = TissueTable::default();
+    for (name, r) in [("enamel", 1.6), ("dentin", 1.1), ("pulp", 0.45)] {
+        let grid = LevelSet::from_sdf(VOXEL, 3.0, DVec3::splat(-r - 0.3), DVec3::splat(r + 0.3), |p| p.length() - r).unwrap();
+        m.push(table.get(name).unwrap().clone(), grid).unwrap();
+    }
+    m.voxelize_for_cutting().unwrap();
+    m
+}
+
+/// Tissue `t` of [`nested_balls_model`] read densely over its whole box (89³ voxels).
+pub fn nested_balls_dense(model: &TissueModel, t: usize) -> Vec<f32> {
+    let mut v = vec![0f32; 89 * 89 * 89];
+    model.tissues[t].grid.read_dense(IVec3::splat(-44), [89u32; 3], &mut v).unwrap();
+    v
+}
+
+/// A burr of `shape` with a random head diameter of 0.8–1.4 mm and a length fitting the shape.
+pub fn random_burr(shape: Shape, unit: &mut impl FnMut() -> f64) -> Burr {
+    let d = 0.8 + 0.6 * unit();
+    let len = match shape {
+        Shape::Wheel => 0.4 * d,
+        Shape::Round => d,
+        _ => (1.5 * d).max(1.0),
+    };
+    Burr::new(shape, d, Some(len)).unwrap()
 }
