@@ -9,7 +9,7 @@ use dentsim_sim::burr::Shape;
 use dentsim_sim::cutting::sweep::{CutBall, CutHead, Done, Sweep};
 use dentsim_sim::tissues::model::TissueModel;
 use dentsim_vdb::Measure;
-use glam::{DAffine3, DQuat, DVec3};
+use glam::DVec3;
 
 const H: f64 = common::VOXEL;
 
@@ -24,21 +24,10 @@ fn skipped_blocks_and_unread_voxels_change_no_grid() {
         let (mut skipping, mut reference, mut unmeasured) = (common::nested_balls_model(), common::nested_balls_model(), common::nested_balls_model());
         let (mut marked, mut every) = (Sweep::default(), Sweep::default());
         let mut log = Vec::new();
-        // A tilted head entering the enamel from above, a pass across, a plunge along its axis,
-        // another pass; 0.02 mm a tick (20 mm/s at 1 kHz), a slight turn on some ticks.
-        let axis = DVec3::new(unit() - 0.5, unit() - 0.5, 2.0).normalize();
-        let tilt = DQuat::from_rotation_arc(DVec3::Z, axis);
-        let across = axis.any_orthonormal_vector();
-        let mut pose = DAffine3::from_rotation_translation(tilt, axis * 1.2 - across * 0.5);
+        let path = common::haptic_tick_path(&mut unit);
         let mut done: Option<Done> = None;
-        for tick in 0..90 {
-            let (step, turn) = match tick {
-                0..=29 => (across * 0.02 - axis * 0.01, 0.0),
-                30..=59 => (-axis * 0.02, 0.0),
-                _ => (-across * 0.02, if tick % 7 == 0 { 0.01 } else { 0.0 }),
-            };
-            let rotation = DQuat::from_axis_angle(axis, turn) * DQuat::from_mat3(&pose.matrix3);
-            let next = DAffine3::from_rotation_translation(rotation, pose.translation + step);
+        for (tick, poses) in path.windows(2).enumerate() {
+            let (pose, next) = (poses[0], poses[1]);
             let grids = &skipping.tissues;
             marked
                 .build_in(&burr, pose, next, H, band, done, |lo, dims, blocks| {
@@ -69,7 +58,6 @@ fn skipped_blocks_and_unread_voxels_change_no_grid() {
                 Some(r) => Done::Ball(CutBall { centre: next.transform_point3(DVec3::new(0.0, 0.0, r)), radius: r }),
                 None => Done::Head(CutHead { to_tool: next.inverse(), offset: 0.0 }),
             });
-            pose = next;
         }
         for t in 0..3 {
             let (a, b, c) = (common::nested_balls_dense(&skipping, t), common::nested_balls_dense(&reference, t), common::nested_balls_dense(&unmeasured, t));

@@ -9,7 +9,6 @@ use dentsim_sim::burr::Shape;
 use dentsim_sim::cutting::cutter::Cutter;
 use dentsim_sim::cutting::removal::Feed;
 use dentsim_vdb::Measure;
-use glam::{DAffine3, DQuat, DVec3};
 
 #[test]
 fn an_unmeasured_cut_leaves_the_grids_a_measured_one_leaves() {
@@ -20,26 +19,16 @@ fn an_unmeasured_cut_leaves_the_grids_a_measured_one_leaves() {
         let (mut a, mut b) = (Cutter::default(), Cutter::default());
         a.set_measure(Measure::Volume);
         b.set_measure(Measure::Skip);
-        let axis = DVec3::new(unit() - 0.5, unit() - 0.5, 2.0).normalize();
-        let tilt = DQuat::from_rotation_arc(DVec3::Z, axis);
-        let across = axis.any_orthonormal_vector();
-        let mut pose = DAffine3::from_rotation_translation(tilt, axis * 1.2 - across * 0.5);
+        let path = common::haptic_tick_path(&mut unit);
         a.prepare(&mut measured, &burr, 0.03);
         b.prepare(&mut unmeasured, &burr, 0.03);
         let mut changed = 0;
-        for tick in 0..90 {
-            let (step, turn) = match tick {
-                0..=29 => (across * 0.02 - axis * 0.01, 0.0),
-                30..=59 => (-axis * 0.02, 0.0),
-                _ => (-across * 0.02, if tick % 7 == 0 { 0.01 } else { 0.0 }),
-            };
-            let rotation = DQuat::from_axis_angle(axis, turn) * DQuat::from_mat3(&pose.matrix3);
-            let next = DAffine3::from_rotation_translation(rotation, pose.translation + step);
+        for (tick, poses) in path.windows(2).enumerate() {
+            let (pose, next) = (poses[0], poses[1]);
             let ra = a.cut_with(&mut measured, &burr, pose, next, Feed::Geometric).unwrap().changed_voxels;
             let rb = b.cut_with(&mut unmeasured, &burr, pose, next, Feed::Geometric).unwrap().changed_voxels;
             assert_eq!(ra, rb, "{shape:?} tick {tick}: changed voxels");
             changed += ra;
-            pose = next;
         }
         assert!(changed > 0, "{shape:?}: nothing cut");
         for t in 0..3 {

@@ -7,7 +7,7 @@ use dentsim_sim::tissues::model::TissueModel;
 use dentsim_sim::tissues::table::TissueTable;
 use dentsim_vdb::{LevelSet, TriMesh};
 use dentsim_sim::burr::{Burr, Shape};
-use glam::{DAffine3, DVec3, IVec3};
+use glam::{DAffine3, DQuat, DVec3, IVec3};
 
 pub const VOXEL: f64 = 0.05;
 
@@ -108,4 +108,25 @@ pub fn random_burr(shape: Shape, unit: &mut impl FnMut() -> f64) -> Burr {
         _ => (1.5 * d).max(1.0),
     };
     Burr::new(shape, d, Some(len)).unwrap()
+}
+
+/// A haptic session's tick poses (91 poses, 90 ticks) through [`nested_balls_model`]: a head
+/// tilted at random entering the enamel from above on a pass across, a plunge along its axis,
+/// a pass back with a slight turn every 7th tick; 0.02 mm a tick (20 mm/s at 1 kHz).
+pub fn haptic_tick_path(unit: &mut impl FnMut() -> f64) -> Vec<DAffine3> {
+    let axis = DVec3::new(unit() - 0.5, unit() - 0.5, 2.0).normalize();
+    let tilt = DQuat::from_rotation_arc(DVec3::Z, axis);
+    let across = axis.any_orthonormal_vector();
+    let mut poses = vec![DAffine3::from_rotation_translation(tilt, axis * 1.2 - across * 0.5)];
+    for tick in 0..90 {
+        let (step, turn) = match tick {
+            0..=29 => (across * 0.02 - axis * 0.01, 0.0),
+            30..=59 => (-axis * 0.02, 0.0),
+            _ => (-across * 0.02, if tick % 7 == 0 { 0.01 } else { 0.0 }),
+        };
+        let pose = poses[tick];
+        let rotation = DQuat::from_axis_angle(axis, turn) * DQuat::from_mat3(&pose.matrix3);
+        poses.push(DAffine3::from_rotation_translation(rotation, pose.translation + step));
+    }
+    poses
 }
