@@ -1,5 +1,6 @@
 //! cut_stroke's 400 ticks per burr family through a `Cutter` (`Measure::Skip`, as the
-//! `cut_stroke_*` rows cut), each tick's thread CPU time, fastest of 3 rounds; p50 / p99 / max.
+//! `cut_stroke_*` rows cut), each tick's thread CPU time, fastest of 3 rounds; p50 / p99 / max,
+//! then the p50 and max of the passes and of the plunges (the worst ticks) apart.
 //! Thread CPU time barely moves with the machine's load, so two builds compare in ~10 s where the
 //! wall-clock rows' p99 is a preemption.
 //!
@@ -41,8 +42,29 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 *b = b.min(start.elapsed().as_secs_f64() * 1e6);
             }
         }
-        best.sort_by(f64::total_cmp);
-        println!("{spec:<18} cpu p50 {:7.1} us  p99 {:7.1} us  max {:7.1} us", best[200], best[396], best[399]);
+        // A plunge's stroke runs along the tool's axis (z), a pass's across it.
+        let plunge = |i: usize| tip(i).translation.z != tip(i + 1).translation.z;
+        let (mut passes, mut plunges): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+        for (i, b) in best.iter().enumerate() {
+            if plunge(i) { plunges.push(*b) } else { passes.push(*b) }
+        }
+        for v in [&mut best, &mut passes, &mut plunges] {
+            v.sort_by(f64::total_cmp);
+        }
+        let mid = |v: &[f64]| v.get(v.len() / 2).copied().unwrap_or(f64::NAN);
+        let max = |v: &[f64]| v.last().copied().unwrap_or(f64::NAN);
+        println!(
+            "{spec:<18} cpu p50 {:7.1} us  p99 {:7.1} us  max {:7.1} us | {} passes p50 {:7.1} max {:7.1} | {} plunges p50 {:7.1} max {:7.1}",
+            best[200],
+            best[396],
+            best[399],
+            passes.len(),
+            mid(&passes),
+            max(&passes),
+            plunges.len(),
+            mid(&plunges),
+            max(&plunges)
+        );
     }
     Ok(())
 }
