@@ -1,15 +1,13 @@
 //! Splits the bench's cut ticks into sweep and per-tissue subtract (fastest of several runs), for
 //! profiling (`dentsim bench` is the reference). `BURR=spec` for another burr (default the round
 //! 1 mm); `SKIP=1` for unmeasured cuts, as a session's haptic ticks make.
-/// This thread's CPU time (s): unlike the wall clock, not inflated while other work holds the
-/// cores.
-fn cpu_now() -> f64 {
-    let mut t = libc::timespec { tv_sec: 0, tv_nsec: 0 };
-    // SAFETY: clock_gettime writes the timespec it is given.
-    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) };
-    t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
+/// This thread's CPU time since `start` (µs): unlike the wall clock, not inflated while other
+/// work holds the cores.
+fn cpu_us(start: ThreadTime) -> f64 {
+    start.elapsed().as_secs_f64() * 1e6
 }
 
+use cpu_time::ThreadTime;
 use dentsim_bench::{bench_stroke_tip, bench_tooth};
 use dentsim_sim::burr::Burr;
 use dentsim_sim::cutting::sweep::{CutBall, CutHead, Done, Sweep};
@@ -42,20 +40,20 @@ fn main() {
                 None => Done::Head(CutHead { to_tool: tip(i).inverse(), offset: 0.0 }),
             });
             let grids = &model.tissues;
-            let s = cpu_now();
+            let s = ThreadTime::now();
             sweep
                 .build_in(&burr, tip(i), tip(i + 1), h, band, done, |lo, dims, blocks| {
                     grids.iter().try_for_each(|t| t.grid.mark_material_blocks(lo, dims, blocks).map_err(Into::into))
                 })
                 .unwrap();
-            sweep_t[i] = sweep_t[i].min((cpu_now() - s) * 1e6);
+            sweep_t[i] = sweep_t[i].min(cpu_us(s));
             within += sweep.patch.values.iter().filter(|v| **v < cutoff).count();
             spanned += sweep.patch.spans.chunks(2).map(|s| (s[1] - s[0]) as usize).sum::<usize>();
             for (k, t) in model.tissues.iter_mut().enumerate() {
                 log.clear();
-                let s = cpu_now();
+                let s = ThreadTime::now();
                 let st = t.grid.subtract_logged(&sweep.patch, 0.0, measure, &mut log).unwrap();
-                sub_t[k][i] = sub_t[k][i].min((cpu_now() - s) * 1e6);
+                sub_t[k][i] = sub_t[k][i].min(cpu_us(s));
                 changed[k] += st.changed_voxels;
             }
         }
