@@ -5,6 +5,8 @@
 //! scan without noise, point spread or integer storage (only the voxels' own averaging), what
 //! the scan's resolution alone allows; `floor`: the analytic level sets' own figures (the
 //! metric's floor); `resolution`: the analytic tissues blurred by each scan's point spread.
+//! `regions`: where the enamel's and dentin's normal error lies (DEJ, thin cervical enamel, outer
+//! surface, root, pulp wall), ours against the sampled resolution floor's.
 #[path = "../tests/family/mod.rs"]
 mod family;
 
@@ -21,6 +23,18 @@ fn main() {
             let floor = family::resolution_floor(&case, 0.05, std::env::args().any(|a| a == "sampled"));
             let text: Vec<String> = floor.iter().map(|(l, d, a)| format!("{} {d:.3} mm {a:.1}°", l.name())).collect();
             println!("{:70} resolution floor: {}", case.name, text.join(" | "));
+        }
+        return;
+    }
+    // `regions`: where our enamel's and dentin's normal error lies against the sampled floor's.
+    if std::env::args().any(|a| a == "regions") {
+        let only: Vec<String> = std::env::args().filter_map(|a| a.strip_prefix("only=").map(str::to_owned)).collect();
+        for case in dentsim_cbct::phantom::family(!quick) {
+            if only.is_empty() || only.iter().any(|o| case.name.contains(o.as_str())) {
+                if let Err(e) = family::print_regions(&case, 0.05) {
+                    println!("{e}");
+                }
+            }
         }
         return;
     }

@@ -121,6 +121,19 @@ fn mesh_errors(mesh: &dentsim_vdb::TriMesh, sdf: impl Fn(DVec3) -> f64) -> (f64,
 /// spline's own blur (σ² = ⅓ sample²) taken out of the point spread; `sampled`: then sampled
 /// on the scan's grid and reconstructed by the pipeline's spline there, as the scan gives it.
 pub fn resolution_floor(case: &FamilyCase, voxel_mm: f64, sampled: bool) -> Vec<(Label, f64, f64)> {
+    let phantom = Phantom::new(&case.spec);
+    let fdi = phantom.tooth();
+    resolution_floor_grids(case, voxel_mm, sampled)
+        .into_iter()
+        .map(|(label, grid)| {
+            let (dist, angle) = mesh_errors(&grid.to_mesh(), |p| phantom.tooth_sdf(fdi, label, p).unwrap_or(f64::INFINITY));
+            (label, dist, angle)
+        })
+        .collect()
+}
+
+/// The floor's surfaces of [`resolution_floor`].
+pub fn resolution_floor_grids(case: &FamilyCase, voxel_mm: f64, sampled: bool) -> Vec<(Label, dentsim_vdb::LevelSet)> {
     use dentsim_sim::tissues::field::{level_set_from_field_with, GridField, Kernel};
     use rayon::prelude::*;
     let phantom = Phantom::new(&case.spec);
@@ -163,8 +176,101 @@ pub fn resolution_floor(case: &FamilyCase, voxel_mm: f64, sampled: bool) -> Vec<
                 let field = GridField { dims, index_to_world, values: &values };
                 level_set_from_field_with(&field, Kernel::CubicBSpline, 0.5, voxel_mm, 3.0).unwrap()
             };
-            let (dist, angle) = mesh_errors(&grid.to_mesh(), sdf);
-            (label, dist, angle)
+            (label, grid)
         })
         .collect()
+}
+
+/// Where a tissue's normal error lies: its triangles sorted into the tooth's regions by the
+/// analytic SDFs at their centres (`h`: the scan's finest spacing). Enamel: the DEJ, the outer
+/// surface where the enamel is thinner than `h` (the cervical edge), the rest of the outer
+/// surface, and triangles with no true enamel within 2 `h` (slivers); dentin: the pulp's wall,
+/// the DEJ, the outer surface within 2 `h` of the enamel (its edge) and the rest of the root.
+/// Per region: triangles, mean angle (degrees).
+pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, label: Label, h: f64) -> Vec<(&'static str, usize, f64)> {
+    let sdf = |l: Label, p: DVec3| phantom.tooth_sdf(fdi, l, p).unwrap_or(f64::INFINITY);
+    let names: &[&'static str] = match label {
+        Label::Enamel => &["DEJ", "outer thin", "outer", "no enamel within 2h"],
+        _ => &["pulp wall", "DEJ", "root at enamel edge", "root"],
+    };
+    let mut bins: Vec<(usize, f64)> = vec![(0, 0.0); names.len()];
+    let step = (mesh.triangles.len() / 40000).max(1);
+    for tri in mesh.triangles.iter().step_by(step) {
+        let [a, b, c] = tri.map(|i| mesh.points[i as usize].as_dvec3());
+        let normal = (b - a).cross(c - a);
+        if normal.length() < 1e-12 {
+            continue;
+        }
+        let centre = (a + b + c) / 3.0;
+        let e = 1e-3;
+        let grad = DVec3::new(
+            sdf(label, centre + DVec3::X * e) - sdf(label, centre - DVec3::X * e),
+            sdf(label, centre + DVec3::Y * e) - sdf(label, centre - DVec3::Y * e),
+            sdf(label, centre + DVec3::Z * e) - sdf(label, centre - DVec3::Z * e),
+        );
+        if grad.length() < 1e-9 || !grad.is_finite() {
+            continue;
+        }
+        let angle = normal.normalize().dot(grad.normalize()).clamp(-1.0, 1.0).acos().to_degrees();
+        let tooth = sdf(Label::Air, centre);
+        // Enamel within 2 h along an axis: the enamel's SDF, max(tooth, −core), is ~0 all over
+        // the root, so it cannot tell the root from the enamel's edge by itself.
+        let near_enamel = (-40..=40).any(|i| {
+            let t = f64::from(i) * h / 20.0;
+            [DVec3::X, DVec3::Y, DVec3::Z].iter().any(|d| sdf(Label::Enamel, centre + *d * t) < -0.005)
+        });
+        let bin = match label {
+            Label::Enamel => {
+                let core = sdf(Label::Dentin, centre);
+                if !near_enamel {
+                    3
+                } else if core.abs() < tooth.abs() {
+                    0
+                } else if core < h {
+                    1
+                } else {
+                    2
+                }
+            }
+            _ => {
+                if sdf(Label::Pulp, centre).abs() < tooth.abs() {
+                    0
+                } else if !near_enamel {
+                    3
+                } else if tooth < -0.05 {
+                    1
+                } else {
+                    2
+                }
+            }
+        };
+        bins[bin].0 += 1;
+        bins[bin].1 += angle;
+    }
+    names.iter().zip(bins).map(|(n, (count, sum))| (*n, count, sum / count.max(1) as f64)).collect()
+}
+
+/// [`region_errors`] of the pipeline's enamel and dentin and of the sampled resolution floor's,
+/// printed side by side.
+pub fn print_regions(case: &FamilyCase, voxel_mm: f64) -> Result<(), String> {
+    let phantom = Phantom::new(&case.spec);
+    let scan = phantom.scan();
+    let fdi = phantom.tooth();
+    let request = TissuesFromScan { seed_mm: phantom.tooth_seed(fdi), fdi, voxel_size_mm: voxel_mm, ..Default::default() };
+    let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| format!("{}: {e}", case.name))?;
+    let h = case.spec.spacing().into_iter().fold(f64::INFINITY, f64::min);
+    let floor = resolution_floor_grids(case, voxel_mm, true);
+    println!("{}", case.name);
+    for label in [Label::Enamel, Label::Dentin] {
+        let ours = region_errors(&model.get(label.name()).ok_or("no tissue")?.grid.to_mesh(), &phantom, fdi, label, h);
+        let theirs = region_errors(&floor.iter().find(|(l, _)| *l == label).unwrap().1.to_mesh(), &phantom, fdi, label, h);
+        let (n_ours, n_floor) = (ours.iter().map(|r| r.1).sum::<usize>().max(1) as f64, theirs.iter().map(|r| r.1).sum::<usize>().max(1) as f64);
+        let text: Vec<String> = ours
+            .iter()
+            .zip(&theirs)
+            .map(|(o, f)| format!("{} {:.0}%/{:.0}% {:.1}°/{:.1}° (adds {:.2}°)", o.0, 100.0 * o.1 as f64 / n_ours, 100.0 * f.1 as f64 / n_floor, o.2, f.2, o.1 as f64 * o.2 / n_ours - f.1 as f64 * f.2 / n_floor))
+            .collect();
+        println!("  {:7} ours/floor: {}", label.name(), text.join(" | "));
+    }
+    Ok(())
 }
