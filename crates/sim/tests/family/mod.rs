@@ -88,13 +88,26 @@ pub fn floor(case: &FamilyCase, voxel_mm: f64) -> Vec<(Label, f64, f64)> {
 /// Mean |true SDF| (mm) at the triangles' centres and mean angle (degrees) between their normals
 /// and the SDF's gradient, over at most ~20,000 triangles spread over the mesh.
 fn mesh_errors(mesh: &dentsim_vdb::TriMesh, sdf: impl Fn(DVec3) -> f64) -> (f64, f64) {
-    let step = (mesh.triangles.len() / 20000).max(1);
     let (mut dist, mut angle, mut n) = (0.0, 0.0, 0usize);
-    for tri in mesh.triangles.iter().step_by(step) {
+    for (centre, a) in triangle_angles(mesh, 20000, &sdf) {
+        dist += sdf(centre).abs();
+        angle += a;
+        n += 1;
+    }
+    let n = n.max(1) as f64;
+    (dist / n, angle / n)
+}
+
+/// Over at most ~`most` triangles spread over the mesh, each one's centre and the angle
+/// (degrees) between its normal and `sdf`'s gradient there; degenerate triangles and points
+/// where the gradient is not defined are left out.
+fn triangle_angles<'a>(mesh: &'a dentsim_vdb::TriMesh, most: usize, sdf: &'a impl Fn(DVec3) -> f64) -> impl Iterator<Item = (DVec3, f64)> + 'a {
+    let step = (mesh.triangles.len() / most).max(1);
+    mesh.triangles.iter().step_by(step).filter_map(move |tri| {
         let [a, b, c] = tri.map(|i| mesh.points[i as usize].as_dvec3());
         let normal = (b - a).cross(c - a);
         if normal.length() < 1e-12 {
-            continue;
+            return None;
         }
         let centre = (a + b + c) / 3.0;
         let h = 1e-3;
@@ -104,14 +117,10 @@ fn mesh_errors(mesh: &dentsim_vdb::TriMesh, sdf: impl Fn(DVec3) -> f64) -> (f64,
             sdf(centre + DVec3::Z * h) - sdf(centre - DVec3::Z * h),
         );
         if grad.length() < 1e-9 || !grad.is_finite() {
-            continue;
+            return None;
         }
-        dist += sdf(centre).abs();
-        angle += normal.normalize().dot(grad.normalize()).clamp(-1.0, 1.0).acos().to_degrees();
-        n += 1;
-    }
-    let n = n.max(1) as f64;
-    (dist / n, angle / n)
+        Some((centre, normal.normalize().dot(grad.normalize()).clamp(-1.0, 1.0).acos().to_degrees()))
+    })
 }
 
 /// What the scan's resolution allows a reconstruction that does not sharpen: each tissue's
@@ -194,24 +203,8 @@ pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, la
         _ => &["pulp wall", "DEJ", "root at enamel edge", "root"],
     };
     let mut bins: Vec<(usize, f64)> = vec![(0, 0.0); names.len()];
-    let step = (mesh.triangles.len() / 40000).max(1);
-    for tri in mesh.triangles.iter().step_by(step) {
-        let [a, b, c] = tri.map(|i| mesh.points[i as usize].as_dvec3());
-        let normal = (b - a).cross(c - a);
-        if normal.length() < 1e-12 {
-            continue;
-        }
-        let centre = (a + b + c) / 3.0;
-        let e = 1e-3;
-        let grad = DVec3::new(
-            sdf(label, centre + DVec3::X * e) - sdf(label, centre - DVec3::X * e),
-            sdf(label, centre + DVec3::Y * e) - sdf(label, centre - DVec3::Y * e),
-            sdf(label, centre + DVec3::Z * e) - sdf(label, centre - DVec3::Z * e),
-        );
-        if grad.length() < 1e-9 || !grad.is_finite() {
-            continue;
-        }
-        let angle = normal.normalize().dot(grad.normalize()).clamp(-1.0, 1.0).acos().to_degrees();
+    let own = |p: DVec3| sdf(label, p);
+    for (centre, angle) in triangle_angles(mesh, 40000, &own) {
         let tooth = sdf(Label::Air, centre);
         // Enamel within 2 h along an axis: the enamel's SDF, max(tooth, −core), is ~0 all over
         // the root, so it cannot tell the root from the enamel's edge by itself.
