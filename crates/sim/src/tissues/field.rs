@@ -5,7 +5,8 @@
 //! neighbour to neighbour, and its distance to that point's tangent plane. This replaces meshing
 //! the field and converting the mesh back (OpenVDB's `levelSetRebuild`: half the time on the
 //! bench scan); only leaves within the band of a cell the surface crosses are visited, in
-//! parallel.
+//! parallel. On a scan's grid without direction cosines the spline is sampled a leaf at a time
+//! separably, and each sweep of the nearest points visits only voxels next to a change.
 use dentsim_vdb::{LevelSet, LEAF_DIM};
 use glam::{DMat3, DVec3, IVec3};
 use rayon::prelude::*;
