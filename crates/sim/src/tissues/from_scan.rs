@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use dentsim_cbct::phantom::gaussian_blur;
 use dentsim_cbct::volume::face_neighbours;
-use dentsim_cbct::{calibrate, crop, trace_thin_canals, crop_labels, enclosed_volume, find_teeth, segment, tooth_box, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
+use dentsim_cbct::{calibrate, crop, crop_labels, enclosed_volume, find_teeth, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
 
 use dentsim_vdb::LevelSet;
 use serde::Serialize;
