@@ -4,11 +4,13 @@
 //! Thread CPU time barely moves with the machine's load, so two builds compare in ~10 s where the
 //! wall-clock rows' p99 is a preemption.
 //!
-//! `cargo run --release -p dentsim-bench --example tick_cpu [SPEC...]`
+//! `cargo run --release -p dentsim-bench --example tick_cpu [SPEC...]`; `HANDOFF=new` hands each
+//! cut's new values on as a session's haptic core does ([`Handoff::NewValues`]) instead of
+//! the `cut_stroke` rows' dirty chunks.
 use cpu_time::ThreadTime;
 use dentsim_bench::{bench_stroke_tip, bench_tooth};
 use dentsim_sim::burr::Burr;
-use dentsim_sim::cutting::cutter::Cutter;
+use dentsim_sim::cutting::cutter::{Cutter, Handoff};
 use dentsim_sim::cutting::removal::Feed;
 use dentsim_vdb::Measure;
 
@@ -34,6 +36,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             model.voxelize_for_cutting()?;
             let mut cutter = Cutter::default();
             cutter.set_measure(Measure::Skip);
+            if std::env::var("HANDOFF").is_ok_and(|h| h == "new") {
+                cutter.set_handoff(Handoff::NewValues);
+            }
             cutter.prepare(&mut model, &burr, tip(0).translation.distance(tip(1).translation));
             cutter.cut_with(&mut model, &burr, tip(0), tip(0), Feed::Geometric)?;
             for (i, b) in best.iter_mut().enumerate() {

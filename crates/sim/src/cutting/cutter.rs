@@ -137,6 +137,8 @@ impl Cutter {
                 c.reserve(voxels.saturating_sub(c.len()));
             }
         }
+        // And the journal's pages mapped, so that recording the strokes takes no page faults.
+        self.history.prefault();
         self.report.reset_for(model);
     }
 

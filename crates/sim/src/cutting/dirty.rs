@@ -100,20 +100,43 @@ impl DirtyLeaves {
 }
 
 /// Which leaves of the 3×3×3 neighbourhood (bit `9·(dz+1) + 3·(dy+1) + (dx+1)`) a change at
-/// `local` (within its leaf) dirties: its own, and across each face it lies on.
+/// `local` (within its leaf) dirties: its own, and across each face it lies on. A lookup by which
+/// face (first, inner or last layer) it lies on along each axis: this runs per changed voxel.
+#[inline]
 fn neighbour_mask(local: IVec3) -> u32 {
-    let side = |l: i32| 0b010 | u32::from(l == 0) | u32::from(l == LEAF_DIM - 1) << 2;
-    let (x, y, z) = (side(local.x), side(local.y), side(local.z));
-    let mut mask = 0;
-    for dz in 0..3 {
-        for dy in 0..3 {
-            if (z >> dz) & (y >> dy) & 1 == 1 {
-                mask |= x << (9 * dz + 3 * dy);
-            }
-        }
-    }
-    mask
+    let layer = |l: i32| usize::from(l == 0) | usize::from(l == LEAF_DIM - 1) << 1;
+    NEIGHBOUR_MASKS[layer(local.x) | layer(local.y) << 2 | layer(local.z) << 4]
 }
+
+/// The leaves along one axis a voxel in `layer` dirties (bit 0: the one before, 1: its own, 2:
+/// the one after).
+const fn sides(layer: usize) -> u32 {
+    0b010 | (layer & 1) as u32 | (((layer >> 1) & 1) as u32) << 2
+}
+
+/// [`neighbour_mask`] by layer along x, y and z (2 bits each: 1 first, 2 last, 0 inner).
+const NEIGHBOUR_MASKS: [u32; 64] = {
+    let mut table = [0u32; 64];
+    let mut i = 0;
+    while i < 64 {
+        let (x, y, z) = (sides(i & 3), sides(i >> 2 & 3), sides(i >> 4 & 3));
+        let mut mask = 0;
+        let mut dz = 0;
+        while dz < 3 {
+            let mut dy = 0;
+            while dy < 3 {
+                if (z >> dz) & (y >> dy) & 1 == 1 {
+                    mask |= x << (9 * dz + 3 * dy);
+                }
+                dy += 1;
+            }
+            dz += 1;
+        }
+        table[i] = mask;
+        i += 1;
+    }
+    table
+};
 
 #[cfg(test)]
 mod tests {
@@ -139,6 +162,23 @@ mod tests {
         out.sort_unstable_by_key(|(t, l)| (*t, l.x, l.y, l.z));
         out.dedup();
         out
+    }
+
+    /// The table gives, for every voxel of a leaf, the mask of its own leaf and those across
+    /// each face it lies on (the leaves whose chunks read it).
+    #[test]
+    fn the_neighbour_masks_name_the_leaves_reading_each_voxel() {
+        for (x, y, z) in (0..LEAF_DIM).flat_map(|x| (0..LEAF_DIM).flat_map(move |y| (0..LEAF_DIM).map(move |z| (x, y, z)))) {
+            let mut want = 0u32;
+            for (bit, (dx, dy, dz)) in (-1..=1).flat_map(|dz| (-1..=1).flat_map(move |dy| (-1..=1).map(move |dx| (dx, dy, dz)))).enumerate() {
+                // The leaf at offset d reads voxels from its origin −1 to its origin +8.
+                let reads = |l: i32, d: i32| l >= d * LEAF_DIM - 1 && l <= d * LEAF_DIM + LEAF_DIM;
+                if reads(x, dx) && reads(y, dy) && reads(z, dz) {
+                    want |= 1 << bit;
+                }
+            }
+            assert_eq!(neighbour_mask(IVec3::new(x, y, z)), want, "voxel ({x}, {y}, {z})");
+        }
     }
 
     #[test]
