@@ -426,6 +426,11 @@ impl NestedBuilder<'_> {
             }
         };
         const SIDE: f32 = GREY_SIDE;
+        // Outside voxels with a face neighbour inside: their grey carries the tooth's blur.
+        let by_inside: Vec<bool> = (0..field.len())
+            .into_par_iter()
+            .map(|m| !inside[m] && face_neighbours(m, [nx, ny, nz]).into_iter().flatten().any(|q| inside[q]))
+            .collect();
         let updates: Vec<(usize, f32)> = (0..field.len())
             .into_par_iter()
             .filter_map(|n| {
@@ -437,7 +442,10 @@ impl NestedBuilder<'_> {
                 let partner = (0..16).max_by_key(|&c| counts[c]).filter(|&c| counts[c] > 0)? as u8;
                 // Outside the tooth, which tissue is there is read as segmentation reads it: the
                 // median grey of the outside voxels within 2 voxels, snapped to air or soft
-                // tissue (a class label there may be partial volume of the tooth's edge).
+                // tissue (a class label there may be partial volume of the tooth's edge). Not
+                // those next to the inside: the scanner's blur brightens them with the tooth's
+                // grey (molar phantom, point spread 0.2 mm: the crown's air read as soft tissue,
+                // its surface 0.026 mm inside, the tooth 9 mm³ small).
                 let outside_grey = |centre: usize| -> Option<f64> {
                     let (ci, cj, ck) = ((centre % nx) as i64, ((centre / nx) % ny) as i64, (centre / (nx * ny)) as i64);
                     let mut grey: Vec<f32> = Vec::with_capacity(125);
@@ -449,7 +457,7 @@ impl NestedBuilder<'_> {
                                     continue;
                                 }
                                 let m = x as usize + nx * (y as usize + ny * z as usize);
-                                if !inside[m] && labels[m] <= Label::BoneCortical as u8 {
+                                if !inside[m] && !by_inside[m] && labels[m] <= Label::BoneCortical as u8 {
                                     grey.push(values[m]);
                                 }
                             }
@@ -560,7 +568,10 @@ impl NestedBuilder<'_> {
         let tooth = tooth?;
         let mut out = Vec::new();
         if let (Some(mut enamel), Some(core)) = (tooth, core.as_ref()) {
+            // Computed before the difference: it needs both surfaces' distances.
+            let cut = thin_enamel_cut(&enamel, core, THIN_ENAMEL_VOXELS * self.voxel_size_mm)?;
             enamel.csg_difference(core)?;
+            enamel.write_voxels(&cut);
             out.push((Enamel, enamel));
         }
         if let Some(mut dentin) = core {
@@ -573,6 +584,64 @@ impl NestedBuilder<'_> {
         out.extend(caries.map(|g| (Caries, g)));
         Ok(out)
     }
+}
+
+/// Enamel thinner than this many model voxels is cut from `tooth ∖ core`. Where the true enamel
+/// thins out (the cervical edge) the two unions' surfaces lie within a voxel of each other and
+/// cross, and their difference is a field of small patches with random normals (the family's
+/// enamel: 7 % of its triangles at 43° mean, the largest share of its normal error).
+const THIN_ENAMEL_VOXELS: f64 = 2.0;
+
+/// The voxels to raise so that `tooth ∖ core` loses its parts thinner than `thinnest_mm`: at
+/// each voxel the shell's local thickness is the distance from the tooth's surface plus the
+/// distance to the core's, s = core − tooth; where s is below `thinnest_mm` the difference's
+/// value max(tooth, −core) is raised to the distance to where s reaches `thinnest_mm`, (t − s) /
+/// |∇s|, which ends the shell there with a clean edge. (|∇s| is 2 where the two surfaces are
+/// parallel, less where they cross at an angle; halving instead, the grid's volume, which reads
+/// its values as distances, lost 29 % more than the thin part on a tapering shell.) Both grids
+/// must share the model's transform.
+fn thin_enamel_cut(tooth: &LevelSet, core: &LevelSet, thinnest_mm: f64) -> Result<Vec<dentsim_vdb::VoxelChange>> {
+    use rayon::prelude::*;
+    if thinnest_mm <= 0.0 {
+        return Ok(Vec::new());
+    }
+    let background = tooth.background();
+    let (thinnest, h) = (thinnest_mm as f32, tooth.voxel_size() as f32);
+    // A leaf and one voxel around it, x fastest: central differences for the gradient.
+    const SIDE: usize = 10;
+    let at = |i: usize, j: usize, k: usize| i + SIDE * (j + SIDE * k);
+    let per_leaf: Vec<Vec<dentsim_vdb::VoxelChange>> = tooth
+        .leaf_origins()
+        .par_iter()
+        .map(|&origin| -> Result<Vec<dentsim_vdb::VoxelChange>> {
+            let (mut t, mut c) = (vec![0f32; SIDE * SIDE * SIDE], vec![0f32; SIDE * SIDE * SIDE]);
+            let corner = origin - glam::IVec3::ONE;
+            tooth.read_dense(corner, [SIDE as u32; 3], &mut t)?;
+            core.read_dense(corner, [SIDE as u32; 3], &mut c)?;
+            let mut out = Vec::new();
+            for k in 1..SIDE - 1 {
+                for j in 1..SIDE - 1 {
+                    for i in 1..SIDE - 1 {
+                        let n = at(i, j, k);
+                        let (shell, s) = (t[n].max(-c[n]), c[n] - t[n]);
+                        if s >= thinnest || shell >= background {
+                            continue;
+                        }
+                        let d = |m: usize, p: usize| (c[p] - t[p]) - (c[m] - t[m]);
+                        let g = [d(at(i - 1, j, k), at(i + 1, j, k)), d(at(i, j - 1, k), at(i, j + 1, k)), d(at(i, j, k - 1), at(i, j, k + 1))];
+                        // Per voxel of distance; where the band's values are clamped, as for parallel surfaces.
+                        let slope = ((g[0] * g[0] + g[1] * g[1] + g[2] * g[2]).sqrt() / (2.0 * h)).clamp(0.25, 2.0);
+                        let raised = ((thinnest - s) / slope).min(background);
+                        if raised > shell {
+                            out.push(dentsim_vdb::VoxelChange { i: corner.x + i as i32, j: corner.y + j as i32, k: corner.z + k as i32, value: raised });
+                        }
+                    }
+                }
+            }
+            Ok(out)
+        })
+        .collect::<Result<_>>()?;
+    Ok(per_leaf.concat())
 }
 
 /// Relabels every `label` voxel outside its largest 6-connected component as `replacement` where
@@ -742,7 +811,57 @@ fn step(go_on: &mut dyn FnMut(&str, f64) -> bool, name: &str, fraction: f64) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
     use std::time::Duration;
+
+    /// A shell between a ball (the tooth) and a smaller ball poking out of it (the core) tapers
+    /// to nothing at the rim where the two spheres cross, as the enamel does at the cervical
+    /// edge. Cut at t, no triangle of what is left lies where the shell is thinner than t (less
+    /// a tolerance for the level sets' own error), and the volume taken is about the analytic
+    /// thin part's.
+    #[test]
+    fn thin_enamel_cut_ends_the_shell_where_it_reaches_t() {
+        let (h, radius, core_radius, core_z, t) = (0.05, 2.0, 1.6, -0.8, 0.1);
+        let core_centre = DVec3::new(0.0, 0.0, core_z);
+        // Local thickness: the distance from the tooth's surface plus the distance to the core's.
+        let thickness = |p: DVec3| (radius - p.length()) + (p.distance(core_centre) - core_radius);
+        let tooth = LevelSet::sphere(DVec3::ZERO, radius, h, 3.0).unwrap();
+        let core = LevelSet::sphere(core_centre, core_radius, h, 3.0).unwrap();
+        let cut = thin_enamel_cut(&tooth, &core, t).unwrap();
+        let mut plain = tooth.clone();
+        plain.csg_difference(&core).unwrap();
+        let mut shell = plain.clone();
+        shell.write_voxels(&cut);
+
+        let thinnest = |grid: &LevelSet| {
+            let mesh = grid.to_mesh();
+            mesh.triangles.iter().map(|tri| thickness(tri.map(|i| mesh.points[i as usize].as_dvec3()).iter().sum::<DVec3>() / 3.0)).fold(f64::INFINITY, f64::min)
+        };
+        let (before, after) = (thinnest(&plain), thinnest(&shell));
+        assert!(before < 0.25 * t, "the plain difference reaches the rim: thinnest {before:.3} mm");
+        assert!(after > t - 0.1 * h, "thinnest shell left {after:.4} mm, cut at {t} mm");
+
+        // The analytic thin part's volume, summed over rings (the shell is axisymmetric).
+        let d = 0.002;
+        let (mut thin, mut whole) = (0.0, 0.0);
+        for a in 0..(radius / d) as usize {
+            let rho = (a as f64 + 0.5) * d;
+            for b in 0..(2.0 * radius / d) as usize {
+                let p = DVec3::new(rho, 0.0, -radius + (b as f64 + 0.5) * d);
+                let inside_shell = p.length() < radius && p.distance(core_centre) > core_radius;
+                if inside_shell {
+                    whole += std::f64::consts::TAU * rho * d * d;
+                    if thickness(p) < t {
+                        thin += std::f64::consts::TAU * rho * d * d;
+                    }
+                }
+            }
+        }
+        let lost = plain.volume() - shell.volume();
+        println!("thinnest before {before:.4} after {after:.4} mm; volume lost {lost:.4} mm3, analytic thin part {thin:.4} mm3; shell {whole:.4} plain {:.4} cut {:.4}", plain.volume(), shell.volume());
+        assert!(lost > 0.8 * thin && lost <= thin, "lost {lost:.4} mm3, the analytic thin part {thin:.4} mm3");
+        assert!((plain.volume() / whole - 1.0).abs() < 1e-3, "the plain difference {:.4} mm3, the analytic shell {whole:.4}", plain.volume());
+    }
 
     /// Work whose later items finish first: item i sleeps (n − i) ms per step.
     fn steps_then_square(n: usize) -> impl Fn(usize, usize, &mut dyn FnMut(&str, f64) -> bool) -> Result<usize> + Sync {
