@@ -5,6 +5,7 @@
 //! scan without noise, point spread or integer storage (only the voxels' own averaging), what
 //! the scan's resolution alone allows; `floor`: the analytic level sets' own figures (the
 //! metric's floor); `resolution`: the analytic tissues blurred by each scan's point spread.
+//! `quiet`: every scan without noise (point spread and integer storage kept): the noise's share.
 //! `regions`: where the enamel's and dentin's normal error lies (DEJ, thin cervical enamel, outer
 //! surface, root, pulp wall), ours against the sampled resolution floor's.
 #[path = "../tests/family/mod.rs"]
@@ -29,7 +30,10 @@ fn main() {
     // `regions`: where our enamel's and dentin's normal error lies against the sampled floor's.
     if std::env::args().any(|a| a == "regions") {
         let only: Vec<String> = std::env::args().filter_map(|a| a.strip_prefix("only=").map(str::to_owned)).collect();
-        for case in dentsim_cbct::phantom::family(!quick) {
+        for mut case in dentsim_cbct::phantom::family(!quick) {
+            if std::env::args().any(|a| a == "quiet") {
+                case.spec.noise_sigma = 0.0;
+            }
             if only.is_empty() || only.iter().any(|o| case.name.contains(o.as_str())) {
                 if let Err(e) = family::print_regions(&case, 0.05) {
                     println!("{e}");
@@ -41,6 +45,8 @@ fn main() {
     let (mut met, mut all) = (0, 0);
     let (mut volume, mut surface, mut normal) = (0, 0, 0);
     let ideal = std::env::args().any(|a| a == "ideal");
+    // `quiet`: without noise only (point spread and integer storage kept): the noise's share.
+    let quiet = std::env::args().any(|a| a == "quiet");
     // `only=TEXT`: the cases whose name holds TEXT.
     let only: Vec<String> = std::env::args().filter_map(|a| a.strip_prefix("only=").map(str::to_owned)).collect();
     for mut case in dentsim_cbct::phantom::family(!quick) {
@@ -51,6 +57,9 @@ fn main() {
             case.spec.noise_sigma = 0.0;
             case.spec.blur_sigma_mm = 0.0;
             case.spec.integer = None;
+        }
+        if quiet {
+            case.spec.noise_sigma = 0.0;
         }
         match family::run(&case, 0.05) {
             Ok(r) => {
