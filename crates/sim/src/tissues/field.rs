@@ -583,6 +583,62 @@ impl VoxelMask {
     }
 }
 
+/// Mean-curvature flow of a smooth inside-fraction field (x fastest), `steps` explicit steps of
+/// `dt` (in squared units of the smallest spacing; stable up to ≈ 1/6): each level set moves
+/// along its normal by its mean curvature, so a terraced or noisy surface relaxes toward a
+/// smooth one while a flat wall stays put. After every step each voxel is held on its side of
+/// 0.5 (`inside`) by at least `side`, so no voxel changes side and thin walls keep their
+/// topology. Only the band 0.05…0.95 moves (the rest has no surface to smooth). The flow shrinks
+/// convex parts by about their curvature times the flow's time; the caller restores the volume.
+pub fn curvature_flow(values: &mut [f32], dims: [usize; 3], spacing: [f64; 3], inside: &[bool], side: f32, steps: usize, dt: f32) {
+    let [nx, ny, nz] = dims;
+    if nx < 3 || ny < 3 || nz < 3 || values.len() != nx * ny * nz || inside.len() != values.len() {
+        return;
+    }
+    let h = spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+    // Derivatives per unit of the smallest spacing.
+    let [ax, ay, az] = spacing.map(|s| (h / s) as f32);
+    let (sy, sz) = (nx, nx * ny);
+    let mut src = values.to_vec();
+    for _ in 0..steps {
+        src.copy_from_slice(values);
+        let src = &src;
+        values.par_chunks_mut(sz).enumerate().for_each(|(k, plane)| {
+            if k == 0 || k + 1 >= nz {
+                return;
+            }
+            for j in 1..ny - 1 {
+                for i in 1..nx - 1 {
+                    let n = i + sy * j + sz * k;
+                    let c = src[n];
+                    if !(0.05..=0.95).contains(&c) {
+                        continue;
+                    }
+                    let at = |d: isize| src[(n as isize + d) as usize];
+                    let (dx, dy, dz) = (1isize, sy as isize, sz as isize);
+                    let fx = 0.5 * ax * (at(dx) - at(-dx));
+                    let fy = 0.5 * ay * (at(dy) - at(-dy));
+                    let fz = 0.5 * az * (at(dz) - at(-dz));
+                    let g2 = fx * fx + fy * fy + fz * fz;
+                    if g2 < 1e-8 {
+                        continue;
+                    }
+                    let fxx = ax * ax * (at(dx) - 2.0 * c + at(-dx));
+                    let fyy = ay * ay * (at(dy) - 2.0 * c + at(-dy));
+                    let fzz = az * az * (at(dz) - 2.0 * c + at(-dz));
+                    let fxy = 0.25 * ax * ay * (at(dx + dy) - at(dx - dy) - at(dy - dx) + at(-dx - dy));
+                    let fxz = 0.25 * ax * az * (at(dx + dz) - at(dx - dz) - at(dz - dx) + at(-dx - dz));
+                    let fyz = 0.25 * ay * az * (at(dy + dz) - at(dy - dz) - at(dz - dy) + at(-dy - dz));
+                    let num = fxx * (fy * fy + fz * fz) + fyy * (fx * fx + fz * fz) + fzz * (fx * fx + fy * fy)
+                        - 2.0 * (fx * fy * fxy + fx * fz * fxz + fy * fz * fyz);
+                    let v = c + dt * num / g2;
+                    plane[i + sy * j] = if inside[n] { v.max(0.5 + side) } else { v.min(0.5 - side) };
+                }
+            }
+        });
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -621,5 +677,57 @@ mod tests {
         let mut seen = Vec::new();
         VoxelMask::of(|n| n % 37 == 3).for_each(|n| seen.push(n));
         assert_eq!(seen, (0..LEAF_VOXELS).filter(|n| n % 37 == 3).collect::<Vec<_>>());
+    }
+
+    /// A ball of radius 2 mm on a 0.3 mm grid, labelled by voxel centre and blurred and held as
+    /// `from_scan`'s unions are (without the grey): its surface keeps the grid's terraces. The flow takes them off
+    /// (normal error falls) and moves the surface little (the volume within a stated bound).
+    #[test]
+    fn curvature_flow_takes_the_terraces_off_a_labelled_ball() {
+        let (h, n, r) = (0.3, 26usize, 2.0);
+        let centre = DVec3::splat(3.77);
+        let dims = [n; 3];
+        let mut values: Vec<f32> = (0..n * n * n)
+            .map(|m| {
+                let p = DVec3::new((m % n) as f64, ((m / n) % n) as f64, (m / (n * n)) as f64) * h;
+                f32::from(u8::from(p.distance(centre) < r))
+            })
+            .collect();
+        let inside: Vec<bool> = values.iter().map(|&v| v > 0.5).collect();
+        dentsim_cbct::phantom::gaussian_blur(&mut values, dims, [0.35; 3]);
+        for (v, inside) in values.iter_mut().zip(&inside) {
+            *v = if *inside { v.max(0.9234) } else { v.min(0.0766) };
+        }
+        dentsim_cbct::phantom::gaussian_blur(&mut values, dims, [0.5; 3]);
+        for (v, inside) in values.iter_mut().zip(&inside) {
+            *v = if *inside { v.max(0.52) } else { v.min(0.48) };
+        }
+        let index_to_world = [h, 0.0, 0.0, 0.0, 0.0, h, 0.0, 0.0, 0.0, 0.0, h, 0.0, 0.0, 0.0, 0.0, 1.0];
+        let surface = |values: &[f32]| {
+            let grid = level_set_from_field_with(&GridField { dims, index_to_world, values }, Kernel::CubicBSpline, 0.5, 0.05, 3.0).unwrap();
+            let mesh = grid.to_mesh();
+            let angles: Vec<f64> = mesh
+                .triangles
+                .iter()
+                .filter_map(|t| {
+                    let [a, b, c] = t.map(|i| mesh.points[i as usize].as_dvec3());
+                    let (normal, mid) = ((b - a).cross(c - a), (a + b + c) / 3.0);
+                    (normal.length() > 1e-12).then(|| normal.normalize().dot((mid - centre).normalize()).clamp(-1.0, 1.0).acos().to_degrees())
+                })
+                .collect();
+            (angles.iter().sum::<f64>() / angles.len() as f64, grid.volume())
+        };
+        let (before_deg, before_mm3) = surface(&values);
+        curvature_flow(&mut values, dims, [h; 3], &inside, 0.02, 4, 0.1);
+        assert!(values.iter().zip(&inside).all(|(v, i)| (*v > 0.5) == *i), "a voxel changed side");
+        let (after_deg, after_mm3) = surface(&values);
+        let truth = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;
+        // Measured: normals 7.81° → 3.67°, volume −4.4 %. The flow shrinks a ball of radius R
+        // (voxels) by 2t/R in radius over its time t (voxels²): −5.4 % of the volume here, less
+        // where a voxel's side holds the surface; the caller restores the volume.
+        println!("normals {before_deg:.2}° → {after_deg:.2}°, volume {before_mm3:.3} → {after_mm3:.3} mm³ (ball {truth:.3})");
+        assert!(after_deg < 0.6 * before_deg, "normals {before_deg:.2}° → {after_deg:.2}°");
+        let shrink = 3.0 * 2.0 * 0.4 / (r / h).powi(2);
+        assert!(after_mm3 < before_mm3 && after_mm3 > before_mm3 * (1.0 - shrink), "volume {before_mm3:.3} → {after_mm3:.3} mm³");
     }
 }

@@ -329,6 +329,16 @@ const UNION_BLUR_VOXELS: f64 = 0.35;
 /// voxel's side of 0.5.
 const GREY_BLUR_VOXELS: f64 = 0.5;
 const GREY_SIDE: f32 = 0.02;
+/// The tooth's and core's fields flow by their mean curvature for this time (mm²; 4 steps of
+/// 0.1 voxel² at 0.2 mm): the family's dentin normals 6.61 → 5.86°, enamel 5.52 → 5.08°.
+/// Fixed in mm², not voxels², so coarse scans' walls are not rounded further than fine ones'.
+const FLOW_MM2: f64 = 0.016;
+
+/// Steps of at most 0.1 (stable) making up `time` (voxels²).
+fn flow_steps(time: f64) -> (usize, f32) {
+    let steps = (time / 0.1).ceil().max(1.0) as usize;
+    (steps, (time / steps as f64) as f32)
+}
 /// Φ(0.5 / σ) for σ = 0.35: the blurred indicator half a voxel inside a flat boundary.
 const FLAT_INSIDE: f32 = 0.9234;
 
@@ -377,10 +387,19 @@ impl NestedBuilder<'_> {
         for (v, inside) in field.iter_mut().zip(&inside) {
             *v = if *inside { v.max(0.5 + GREY_SIDE) } else { v.min(0.5 - GREY_SIDE) };
         }
-        let mut grid = self.level_set(&field, 0.5)?;
-        if codes.contains(&(Label::Dentin as u8)) {
+        let grid = if codes.contains(&(Label::Dentin as u8)) {
+            // Tooth and core (their roots share a surface, so both flow alike); the volume is
+            // the field's before the flow.
+            let mut flowed = field.clone();
+            let h = self.scan.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+            let (steps, dt) = flow_steps(FLOW_MM2 / (h * h));
+            field::curvature_flow(&mut flowed, self.scan.dims, self.scan.spacing, &inside, GREY_SIDE, steps, dt);
+            let mut grid = self.level_set(&flowed, 0.5)?;
             self.keep_trilinear_volume(&field, &mut grid)?;
-        }
+            grid
+        } else {
+            self.level_set(&field, 0.5)?
+        };
         Ok(Some(grid))
     }
 
@@ -597,8 +616,10 @@ impl NestedBuilder<'_> {
 /// Enamel thinner than this many model voxels is cut from `tooth ∖ core`. Where the true enamel
 /// thins out (the cervical edge) the two unions' surfaces lie within a voxel of each other and
 /// cross, and their difference is a field of small patches with random normals (the family's
-/// enamel: 7 % of its triangles at 43° mean, the largest share of its normal error).
-const THIN_ENAMEL_VOXELS: f64 = 2.0;
+/// enamel: 7 % of its triangles at 43° mean, the largest share of its normal error). 2.5, not
+/// 2: with the curvature flow the two surfaces part a little later at the edge (the 0.25 mm
+/// incisor's thin enamel 2 → 3 % of its triangles under 2).
+const THIN_ENAMEL_VOXELS: f64 = 2.5;
 
 /// The voxels to raise so that `tooth ∖ core` loses its parts thinner than `thinnest_mm`: at
 /// each voxel the shell's local thickness is the distance from the tooth's surface plus the
