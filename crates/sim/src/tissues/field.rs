@@ -705,17 +705,7 @@ mod tests {
         let index_to_world = [h, 0.0, 0.0, 0.0, 0.0, h, 0.0, 0.0, 0.0, 0.0, h, 0.0, 0.0, 0.0, 0.0, 1.0];
         let surface = |values: &[f32]| {
             let grid = level_set_from_field_with(&GridField { dims, index_to_world, values }, Kernel::CubicBSpline, 0.5, 0.05, 3.0).unwrap();
-            let mesh = grid.to_mesh();
-            let angles: Vec<f64> = mesh
-                .triangles
-                .iter()
-                .filter_map(|t| {
-                    let [a, b, c] = t.map(|i| mesh.points[i as usize].as_dvec3());
-                    let (normal, mid) = ((b - a).cross(c - a), (a + b + c) / 3.0);
-                    (normal.length() > 1e-12).then(|| normal.normalize().dot((mid - centre).normalize()).clamp(-1.0, 1.0).acos().to_degrees())
-                })
-                .collect();
-            (angles.iter().sum::<f64>() / angles.len() as f64, grid.volume())
+            (crate::tissues::test_shapes::radial_normal_error(&grid.to_mesh(), centre, |_| true), grid.volume())
         };
         let (before_deg, before_mm3) = surface(&values);
         curvature_flow(&mut values, dims, [h; 3], &inside, 0.02, 4, 0.1);

@@ -921,17 +921,7 @@ mod tests {
     /// Mean angle (°) between the chamber's triangles (those above its equator, away from the
     /// canal) and the ball's normals.
     fn chamber_normal_error(grid: &LevelSet) -> f64 {
-        let mesh = grid.to_mesh();
-        let angles: Vec<f64> = mesh
-            .triangles
-            .iter()
-            .filter_map(|t| {
-                let [a, b, c] = t.map(|i| mesh.points[i as usize].as_dvec3());
-                let (n, centre) = ((b - a).cross(c - a), (a + b + c) / 3.0);
-                (n.length() > 1e-12 && centre.z > CHAMBER.z).then(|| n.normalize().dot((centre - CHAMBER).normalize()).clamp(-1.0, 1.0).acos().to_degrees())
-            })
-            .collect();
-        angles.iter().sum::<f64>() / angles.len() as f64
+        crate::tissues::test_shapes::radial_normal_error(&grid.to_mesh(), CHAMBER, |mid| mid.z > CHAMBER.z)
     }
 
     #[test]
