@@ -368,7 +368,7 @@ fn clean_metal(g: &Grid, vol: &Volume, labels: &mut [u8]) {
         return;
     }
     let r = METAL_OPENING_MM;
-    let pad = 2 + (r / vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min)).ceil() as usize;
+    let pad = 2 + (r / vol.min_spacing()).ceil() as usize;
     for c in 0..3 {
         lo[c] = lo[c].saturating_sub(pad);
         hi[c] = (hi[c] + pad).min(g.d[c] - 1);
@@ -481,7 +481,7 @@ fn tooth_markers(g: &Grid, vol: &Volume, core: &[bool], opts: &SegmentOptions) -
     // Markers: the core eroded by ~0.6 mm, which separates teeth touching at contact points and
     // roots touching bone; each marker then regrows over the core (multi-source breadth-first),
     // so every core voxel goes to the nearest marker.
-    let r = if opts.opening { ((0.6 / vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min)).round() as usize).clamp(1, 4) } else { 0 };
+    let r = if opts.opening { ((0.6 / vol.min_spacing()).round() as usize).clamp(1, 4) } else { 0 };
     let mut eroded = core.to_vec();
     for _ in 0..r {
         eroded = morph(g, &eroded, false);
@@ -747,7 +747,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     if blo[0] == usize::MAX {
         return Ok(out);
     }
-    let h = vol.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+    let h = vol.min_spacing();
     let pad = 2 + (LESION_MOUTH_MM / h).ceil() as usize;
     for c in 0..3 {
         blo[c] = blo[c].saturating_sub(pad);

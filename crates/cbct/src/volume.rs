@@ -95,6 +95,10 @@ impl Volume {
     pub fn index_to_world(&self) -> [f64; 16] {
         affine(self.spacing, self.origin, self.direction)
     }
+    /// The finest of the three voxel spacings (mm).
+    pub fn min_spacing(&self) -> f64 {
+        self.spacing.iter().cloned().fold(f64::INFINITY, f64::min)
+    }
     /// Continuous voxel index of an LPS point (voxel centres at integers).
     pub fn world_to_index(&self, p: [f64; 3]) -> Option<[f64; 3]> {
         world_to_index_of(self.spacing, self.origin, self.direction, p)

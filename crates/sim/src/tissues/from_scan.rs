@@ -391,7 +391,7 @@ impl NestedBuilder<'_> {
             // Tooth and core (their roots share a surface, so both flow alike); the volume is
             // the field's before the flow.
             let mut flowed = field.clone();
-            let h = self.scan.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+            let h = self.scan.min_spacing();
             let (steps, dt) = flow_steps(FLOW_MM2 / (h * h));
             field::curvature_flow(&mut flowed, self.scan.dims, self.scan.spacing, &inside, GREY_SIDE, steps, dt);
             let mut grid = self.level_set(&flowed, 0.5)?;
@@ -410,7 +410,7 @@ impl NestedBuilder<'_> {
     fn keep_trilinear_volume(&self, field: &[f32], grid: &mut LevelSet) -> Result<()> {
         // At the scan's voxel (no finer than the model's): cheap, the target within ~0.2 % of
         // a finer one's; its surface's area serves the step.
-        let h = self.scan.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+        let h = self.scan.min_spacing();
         let values = field::GridField { dims: self.scan.dims, index_to_world: self.scan.index_to_world(), values: field };
         let trilinear = field::level_set_from_field_with(&values, field::Kernel::Trilinear, 0.5, h.max(self.voxel_size_mm), 3.0)?;
         let (target, area) = (trilinear.volume(), crate::tissues::surface::surface(&trilinear)?.area());
@@ -530,7 +530,7 @@ impl NestedBuilder<'_> {
         if !area.is_finite() || area <= 0.0 {
             return Ok(None);
         }
-        let limit = 0.5 * self.scan.spacing.iter().cloned().fold(f64::INFINITY, f64::min);
+        let limit = 0.5 * self.scan.min_spacing();
         let mut offset_mm = 0.0;
         // The area is the first surface's: each step leaves a remainder (the curvature term, the
         // area's change) that the next takes up; on the family two steps left up to 2.3 % of
