@@ -156,10 +156,14 @@ rust::String probe_read(rust::Slice<const uint8_t> bytes, uint64_t max_bytes, ui
   }
   std::unique_lock<std::mutex> lock(io_mutex);
   const pid_t pid = fork();
-  if (pid != 0) lock.unlock();  // the child leaves it: it never takes it again
+  if (pid != 0) {
+    // Closed before another thread may fork: a later probe's child would inherit this write
+    // end, and this read's end of file would wait for that child too.
+    close(fds[1]);
+    lock.unlock();  // the child leaves it: it never takes it again
+  }
   if (pid < 0) {
     close(fds[0]);
-    close(fds[1]);
     close(out_fd);
     throw std::runtime_error(std::string("fork: ") + std::strerror(errno));
   }
@@ -214,10 +218,13 @@ rust::String probe_read(rust::Slice<const uint8_t> bytes, uint64_t max_bytes, ui
     }
     _exit(msg.empty() ? 0 : 1);
   }
-  close(fds[1]);
   std::string msg;
   bool timed_out = false;
+  int status = 0;
+  bool reaped = false;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms);
+  // Ends at the pipe's end of file or at the child's exit, whichever comes first: a process
+  // forked elsewhere (not under io_mutex) may hold a copy of the write end until it execs.
   for (;;) {
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
     if (left <= 0) {
@@ -225,9 +232,23 @@ rust::String probe_read(rust::Slice<const uint8_t> bytes, uint64_t max_bytes, ui
       break;
     }
     struct pollfd p {fds[0], POLLIN, 0};
-    const int r = poll(&p, 1, int(std::min<long long>(left, 1000)));
+    const int r = poll(&p, 1, int(std::min<long long>(left, 20)));
     if (r < 0 && errno == EINTR) continue;
-    if (r <= 0) continue;
+    if (r == 0) {
+      if (waitpid(pid, &status, WNOHANG) == pid) {
+        reaped = true;
+        // What the child wrote before it exited is in the pipe already.
+        char chunk[1024];
+        while (poll(&p, 1, 0) > 0) {
+          const ssize_t n = read(fds[0], chunk, sizeof chunk);
+          if (n <= 0) break;
+          if (msg.size() < 4096) msg.append(chunk, size_t(n));
+        }
+        break;
+      }
+      continue;
+    }
+    if (r < 0) continue;
     char chunk[1024];
     const ssize_t n = read(fds[0], chunk, sizeof chunk);
     if (n < 0 && errno == EINTR) continue;
@@ -236,8 +257,7 @@ rust::String probe_read(rust::Slice<const uint8_t> bytes, uint64_t max_bytes, ui
   }
   close(fds[0]);
   if (timed_out) kill(pid, SIGKILL);
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  while (!reaped && waitpid(pid, &status, 0) < 0 && errno == EINTR) {
   }
   if (timed_out || WIFSIGNALED(status)) close(out_fd);
   if (timed_out)

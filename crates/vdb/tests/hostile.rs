@@ -138,3 +138,43 @@ fn metadata_of_another_type_is_replaced_not_an_abort() {
     g.set_meta("colour", &MetaValue::I64(3));
     assert_eq!(g.meta("colour").unwrap(), MetaValue::I64(3));
 }
+
+/// Reads from many threads at once, while others run OpenVDB's threaded CSG and mesher: every
+/// read's forked child gets the file back whole, none waits on another's pipe or lock (a read
+/// once timed out in a parallel test run while its file was valid).
+#[test]
+fn reads_from_many_threads_beside_threaded_work_all_succeed() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("ball.vdb");
+    let ball = sphere(0.05, DVec3::ZERO, 1.0);
+    write_file(&path, &[&ball]).unwrap();
+    let expected = ball.volume();
+    std::thread::scope(|s| {
+        for _ in 0..2 {
+            s.spawn(|| {
+                for i in 0..10 {
+                    let mut a = sphere(0.05, DVec3::ZERO, 1.0);
+                    a.csg_difference(&sphere(0.05, DVec3::new(0.5 + 0.01 * i as f64, 0.0, 0.0), 0.6)).unwrap();
+                    assert!(!a.to_mesh().triangles.is_empty());
+                }
+            });
+        }
+        let readers: Vec<_> = (0..6)
+            .map(|_| {
+                s.spawn(|| {
+                    (0..15)
+                        .map(|_| {
+                            let grids = read_file(&path).unwrap_or_else(|e| panic!("{e}"));
+                            grids.into_iter().next().unwrap().level_set.expect("a float level set").volume()
+                        })
+                        .collect::<Vec<f64>>()
+                })
+            })
+            .collect();
+        for reader in readers {
+            for v in reader.join().unwrap() {
+                assert_eq!(v, expected);
+            }
+        }
+    });
+}
