@@ -94,7 +94,7 @@ pub struct Sweep {
     spans_only: Option<u32>,
     /// Only an unmeasured subtract reads the patch (see [`Sweep::set_unmeasured`]).
     unmeasured: bool,
-    /// One-pose heads whose axis lies nearer z than x are evaluated in columns along z (see
+    /// One-pose heads whose axis lies nearest z are evaluated in columns along z (see
     /// [`Sweep::set_columns`]).
     columns: bool,
     /// Whether the last build was (see [`Sweep::built_in_columns`]).
@@ -168,8 +168,8 @@ impl Sweep {
         self.unmeasured = unmeasured;
     }
 
-    /// Whether a head evaluated at one pose (the haptic tick's usual stroke) whose axis lies nearer
-    /// the z axis than the x axis is evaluated in columns along z rather than rows along x. The
+    /// Whether a head evaluated at one pose (the haptic tick's usual stroke) whose axis lies nearest
+    /// the z axis (of the three) is evaluated in columns along z rather than rows along x. The
     /// band a tick can change is a shell about the head: rows across the axis cut it into short
     /// runs, each paying the row's bounds (slabs, back, deep capsule), while columns along a
     /// near-vertical head run the shell's length, so there are far fewer of them. A voxel's point
@@ -398,7 +398,10 @@ impl Sweep {
         // Columns along z (see `set_columns`): the one pose's bounds with x and z swapped, so
         // that what they give along a row along x they give along a column.
         let columns = match (&self.axes[..], start_free) {
-            ([_, (a, b)], Some(_)) => self.columns && (*b - *a).z.abs() >= (*b - *a).x.abs(),
+            ([_, (a, b)], Some(_)) => {
+                let d = (*b - *a).abs();
+                self.columns && d.z >= d.x.max(d.y)
+            }
             _ => false,
         };
         let turn = |v: DVec3| if columns { swap_xz(v) } else { v };
