@@ -279,6 +279,21 @@ impl Burr {
         }
     }
 
+    /// [`sdf_row_from`](Self::sdf_row_from) at the first `n` (at most [`profile::LANES`]) of
+    /// `lanes`' points, each of its own row (see [`profile::Lanes`]), into `out[..n]`: bit for
+    /// bit each row's value there.
+    pub fn sdf_lanes(&self, lanes: &profile::Lanes, n: usize, step: glam::Vec3, out: &mut [f32]) {
+        match &self.head {
+            Head::Ball { radius } => {
+                for (l, o) in out[..n].iter_mut().enumerate() {
+                    let c = glam::Vec3::new(lanes.x[l], lanes.y[l], lanes.z[l]) - glam::Vec3::new(0.0, 0.0, *radius as f32);
+                    *o = (c + step * lanes.t[l]).length() - *radius as f32;
+                }
+            }
+            Head::Revolved(profile) => profile.sdf_lanes(lanes, n, step.to_array(), out),
+        }
+    }
+
     /// Signed distance of a tool-frame point to the non-cutting neck and shank.
     pub fn shank_sdf(&self, p: DVec3) -> f64 {
         self.shank.sdf((p.x * p.x + p.y * p.y).sqrt(), p.z)

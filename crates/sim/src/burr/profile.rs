@@ -137,6 +137,22 @@ impl Edge32 {
 /// Points per batch of [`Profile::sdf_row`]: short arrays the compiler vectorises across.
 const BATCH: usize = 16;
 
+/// Points in one batch of [`Profile::sdf_lanes`].
+pub const LANES: usize = BATCH;
+
+/// Up to [`LANES`] points of rows that share a step: lane `l` is the point `origin[l] + t[l]·step`
+/// of its own row. A haptic tick's rows are evaluated a few voxels at a time (the band's two
+/// sides of the head), so a row's runs leave most of a batch idle; lanes filled from several rows
+/// keep it full. Each lane's arithmetic is the row kernel's, so its distance is bit for bit the
+/// one [`Profile::sdf_row_from`] gives at `t[l]` along its row.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Lanes {
+    pub x: [f32; LANES],
+    pub y: [f32; LANES],
+    pub z: [f32; LANES],
+    pub t: [f32; LANES],
+}
+
 impl Edge {
     fn new(a: DVec2, b: DVec2, arc: Option<Piece>) -> Self {
         let ab = b - a;
@@ -293,6 +309,36 @@ impl Profile {
     }
 }
 
+impl Profile {
+    /// [`sdf_row_from`](Self::sdf_row_from) at the first `n` (at most [`LANES`]) lanes' points,
+    /// each bit for bit its row's value there, into `out[..n]`.
+    pub fn sdf_lanes(&self, lanes: &Lanes, n: usize, step: [f32; 3], out: &mut [f32]) {
+        let Some((closing, pieces)) = self.edges32.split_last() else {
+            out[..n].fill(f32::INFINITY);
+            return;
+        };
+        // The row kernel's batch sizes: a lane's arithmetic is the same in each.
+        match n {
+            9.. => lanes_batch::<BATCH>(pieces, closing, lanes, step, &mut out[..n]),
+            5..=8 => lanes_batch::<8>(pieces, closing, lanes, step, &mut out[..n]),
+            _ => lanes_batch::<4>(pieces, closing, lanes, step, &mut out[..n]),
+        }
+    }
+}
+
+/// [`Profile::sdf_lanes`] in a batch of N: each lane's point as [`sdf_batch`] makes it.
+#[inline(always)]
+fn lanes_batch<const N: usize>(pieces: &[Edge32], closing: &Edge32, lanes: &Lanes, step: [f32; 3], out: &mut [f32]) {
+    let (mut rho, mut z) = ([0f32; N], [0f32; N]);
+    for l in 0..N {
+        let t = lanes.t[l];
+        let (x, y) = (lanes.x[l] + step[0] * t, lanes.y[l] + step[1] * t);
+        rho[l] = (x * x + y * y).sqrt();
+        z[l] = lanes.z[l] + step[2] * t;
+    }
+    sdf_points(pieces, closing, rho, z, out);
+}
+
 /// [`Profile::sdf_row`] at the row's points `ts[l]` (l < N), into `out` (at most N). Each
 /// lane's arithmetic is the same whatever N, so a point's distance does not depend on the batch
 /// it falls in.
@@ -305,6 +351,12 @@ fn sdf_batch<const N: usize>(pieces: &[Edge32], closing: &Edge32, origin: [f32; 
         rho[l] = (x * x + y * y).sqrt();
         z[l] = origin[2] + step[2] * t;
     }
+    sdf_points(pieces, closing, rho, z, out);
+}
+
+/// The signed distance at N points given by radius and height, into `out` (at most N).
+#[inline(always)]
+fn sdf_points<const N: usize>(pieces: &[Edge32], closing: &Edge32, rho: [f32; N], z: [f32; N], out: &mut [f32]) {
     // The sign test looks from just off the axis, as `sdf`.
     let rho_q = rho.map(|r| r.max(1e-9));
     let (mut line2, mut arc) = ([f32::INFINITY; N], [f32::INFINITY; N]);

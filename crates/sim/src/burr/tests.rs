@@ -343,3 +343,42 @@ fn a_row_prefix_gives_the_rows_values_bit_for_bit() {
         }
     }
 }
+
+/// Lanes drawn from several rows (any origins, any points along them, any count up to a batch)
+/// give bit for bit each row's own values: the sweep packs a tick's short runs into them.
+#[test]
+fn lanes_from_several_rows_give_each_rows_values_bit_for_bit() {
+    let mut unit = crate::unit_random(0x9e37_79b9_7f4a_7c15u64);
+    let step = DVec3::new(0.05, 0.004, -0.002).as_vec3();
+    let rows = 5;
+    let mut values = vec![vec![0f32; 40]; rows];
+    for burr in every_burr().into_iter().chain([Burr::parse("round:1").unwrap()]) {
+        let origins: Vec<glam::Vec3> = (0..rows)
+            .map(|_| DVec3::new(-1.0 + 0.2 * unit(), unit() - 0.5, burr.length_mm * unit()).as_vec3())
+            .collect();
+        for (o, v) in origins.iter().zip(&mut values) {
+            burr.sdf_row(*o, step, v);
+        }
+        let mut compared = 0;
+        for _ in 0..200 {
+            let n = 1 + (unit() * profile::LANES as f64) as usize % profile::LANES;
+            let mut lanes = profile::Lanes::default();
+            let mut at = [(0usize, 0usize); profile::LANES];
+            for l in 0..n {
+                let (r, i) = ((unit() * rows as f64) as usize % rows, (unit() * 40.0) as usize % 40);
+                let o = origins[r];
+                (lanes.x[l], lanes.y[l], lanes.z[l], lanes.t[l]) = (o.x, o.y, o.z, i as f32);
+                at[l] = (r, i);
+            }
+            let mut out = [f32::NAN; profile::LANES];
+            burr.sdf_lanes(&lanes, n, step, &mut out);
+            for l in 0..n {
+                let (r, i) = at[l];
+                assert_eq!(out[l].to_bits(), values[r][i].to_bits(), "{:?}: lane {l} of {n}, row {r} point {i}", burr.shape);
+                compared += 1;
+            }
+            assert!(out[n..].iter().all(|v| v.is_nan()), "{:?}: wrote past {n} lanes", burr.shape);
+        }
+        assert!(compared > 1000);
+    }
+}

@@ -191,7 +191,11 @@ impl Cutter {
         // Only blocks where some grid has material can change (an outside tile cannot).
         let grids = &model.tissues;
         // A geometric feed measures nothing unless told to; a limited one reads past the band.
-        self.sweep.set_unmeasured(self.measure == Measure::Skip && feed == Feed::Geometric);
+        let unmeasured = self.measure == Measure::Skip && feed == Feed::Geometric;
+        self.sweep.set_unmeasured(unmeasured);
+        // The haptic tick's: a near-vertical head's band in columns along its axis (tests pin
+        // the grids it leaves to the rows').
+        self.sweep.set_columns(unmeasured);
         self.sweep.build_in(burr, from, to, h, band, done, |lo, dims, blocks| {
             grids.iter().try_for_each(|t| t.grid.mark_material_blocks(lo, dims, blocks).map_err(Into::into))
         })?;

@@ -83,6 +83,9 @@ pub struct Sweep {
     /// inclusive) from the first such block to the last.
     material: Vec<u8>,
     material_rows: Vec<(i32, i32)>,
+    /// With [`Sweep::set_columns`], per column of blocks the z range (voxel index, inclusive)
+    /// from the first block with material to the last.
+    material_columns: Vec<(i32, i32)>,
     rows: RowScratch,
     /// Evaluates every row the general way, bounded by the head's one cylinder, without the
     /// one-pose fast path and the slabs; the tests pin those to it.
@@ -91,6 +94,11 @@ pub struct Sweep {
     spans_only: Option<u32>,
     /// Only an unmeasured subtract reads the patch (see [`Sweep::set_unmeasured`]).
     unmeasured: bool,
+    /// One-pose heads whose axis lies nearest z are evaluated in columns along z (see
+    /// [`Sweep::set_columns`]).
+    columns: bool,
+    /// Whether the last build was (see [`Sweep::built_in_columns`]).
+    in_columns: bool,
 }
 
 /// One row run's distances for a non-round head (see [`Sweep::build_in`]), voxel by voxel.
@@ -137,6 +145,7 @@ impl Sweep {
         let blocks = (side as usize / LEAF_DIM as usize + 2).pow(3);
         self.material.reserve(blocks.saturating_sub(self.material.len()));
         self.material_rows.reserve(blocks.saturating_sub(self.material_rows.len()));
+        self.material_columns.reserve(blocks.saturating_sub(self.material_columns.len()));
         self.rows.reserve(side as usize);
         // The sub-poses of a translation that long (rotation adds more; those still grow once).
         let poses = (travel_mm.max(0.0) / (2.0 * GAP_VOXELS * voxel)).ceil().min(MAX_SUBSTEPS as f64) as usize + 2;
@@ -157,6 +166,24 @@ impl Sweep {
     /// are the same bit for bit, so the grids such a subtract leaves are too.
     pub fn set_unmeasured(&mut self, unmeasured: bool) {
         self.unmeasured = unmeasured;
+    }
+
+    /// Whether a head evaluated at one pose (the haptic tick's usual stroke) whose axis lies nearest
+    /// the z axis (of the three) is evaluated in columns along z rather than rows along x. The
+    /// band a tick can change is a shell about the head: rows across the axis cut it into short
+    /// runs, each paying the row's bounds (slabs, back, deep capsule), while columns along a
+    /// near-vertical head run the shell's length, so there are far fewer of them. A voxel's point
+    /// is the one its row along x gives (the row's origin in f64, then the f32 step), so every
+    /// voxel evaluated holds the row path's value bit for bit; the bounds are the same sets, taken
+    /// along z (to a voxel at their edges, which the bounds' own arguments cover: such voxels
+    /// change no grid). The patch keeps its layout (x fastest) and its spans.
+    pub fn set_columns(&mut self, columns: bool) {
+        self.columns = columns;
+    }
+
+    /// Whether the last build evaluated its head in columns along z (see [`Self::set_columns`]).
+    pub fn built_in_columns(&self) -> bool {
+        self.in_columns
     }
 
     /// Voxels along each side of the box a cut of `travel_mm` works in (what [`Self::reserve`]
@@ -220,6 +247,7 @@ impl Sweep {
         }
         let n = n as usize;
         self.substeps = n;
+        self.in_columns = false;
         self.inverse.clear();
         self.centres.clear();
         self.axes.clear();
@@ -337,15 +365,18 @@ impl Sweep {
         };
         // With the start free, voxels inside the start head's inner capsule lie deeper in it than
         // the band (and its slack; a hair narrower for rounding): they keep the cut-off.
-        let inner = match start_free {
-            // With its bounding box across the rows (y and z, mm), the cheaper test.
+        let inner_axis = match start_free {
             Some(_) => burr.inner_capsule(band + f64::from(DONE_SLACK) + 1e-5).map(|(za, zb, r)| {
-                let (a, b, r) = (from.transform_point3(DVec3::new(0.0, 0.0, za)), from.transform_point3(DVec3::new(0.0, 0.0, zb)), r - 1e-6);
-                let (low, high) = (a.min(b) - r, a.max(b) + r);
-                (LineCapsule::new(a, b, r), [low.y, high.y, low.z, high.z])
+                (from.transform_point3(DVec3::new(0.0, 0.0, za)), from.transform_point3(DVec3::new(0.0, 0.0, zb)), r - 1e-6)
             }),
             None => None,
         };
+        // With its bounding box across the rows (y and z, mm), the cheaper test.
+        let capsule_across = |(a, b, r): (DVec3, DVec3, f64)| {
+            let (low, high) = (a.min(b) - r, a.max(b) + r);
+            (LineCapsule::new(a, b, r), [low.y, high.y, low.z, high.z])
+        };
+        let inner = inner_axis.map(capsule_across);
         // A translating ball whose start lies within the done ball: behind the plane through the
         // start, normal to the motion, the capsule's nearest point is the start, which the done
         // ball covers, so every voxel there would come out as the cut-off. Rows skip that part.
@@ -364,6 +395,16 @@ impl Sweep {
         self.capsules.clear();
         self.frustums.clear();
         self.slab_boxes.clear();
+        // Columns along z (see `set_columns`): the one pose's bounds with x and z swapped, so
+        // that what they give along a row along x they give along a column.
+        let columns = match (&self.axes[..], start_free) {
+            ([_, (a, b)], Some(_)) => {
+                let d = (*b - *a).abs();
+                self.columns && d.z >= d.x.max(d.y)
+            }
+            _ => false,
+        };
+        let turn = |v: DVec3| if columns { swap_xz(v) } else { v };
         match &self.axes[first_pose.min(self.axes.len())..] {
             // One pose: each slab's frustum, grown by the cut-off along the axis and across it,
             // holds every point within the cut-off of the head's part in that slab (within the
@@ -372,7 +413,7 @@ impl Sweep {
                 let along = |h: f64| *a + (*b - *a) * ((h - z_min) / (z_max - z_min));
                 let grow = if self.unmeasured { band } else { cutoff };
                 for &(h0, h1, r0, r1) in burr.axis_frustums() {
-                    let (p, q) = (along(h0 - grow - FRUSTUM_SLACK), along(h1 + grow + FRUSTUM_SLACK));
+                    let (p, q) = (turn(along(h0 - grow - FRUSTUM_SLACK)), turn(along(h1 + grow + FRUSTUM_SLACK)));
                     let frustum = Frustum::around(p, q, (h0, h1, r0, r1), grow);
                     // (A hair wider than the frustum: the box only culls.)
                     let r = frustum.widest() + 1e-9;
@@ -384,6 +425,32 @@ impl Sweep {
             axes => self.capsules.extend(axes.iter().map(|(a, b)| LineCapsule::new(*a, *b, axis_reach))),
         }
         let slabbed = !self.frustums.is_empty();
+        if columns && slabbed {
+            if let Some(moves) = start_free {
+                self.material_columns.clear();
+                let plane = blocks[0] * blocks[1];
+                for column in 0..plane {
+                    let has = |bz: &usize| self.material[column + plane * bz] >= least;
+                    let range = match ((0..blocks[2]).find(has), (0..blocks[2]).rev().find(has)) {
+                        (Some(a), Some(b)) => (first_block.z + a as i32 * LEAF_DIM, first_block.z + b as i32 * LEAF_DIM + LEAF_DIM - 1),
+                        _ => (1, 0),
+                    };
+                    self.material_columns.push(range);
+                }
+                let bounds = ColumnBounds {
+                    frustums: &self.frustums,
+                    slab_boxes: &self.slab_boxes,
+                    material: &self.material_columns,
+                    first_block,
+                    blocks_x: blocks[0],
+                    behind: behind.map(|b| Behind { origin: swap_xz(b.origin), across: swap_xz(b.across), axis: swap_xz(b.axis), height: b.height }),
+                    inner: inner_axis.map(|(a, b, r)| capsule_across((swap_xz(a), swap_xz(b), r))),
+                };
+                fill_columns(burr, patch, &self.inverse[1], &bounds, (voxel, band, cutoff, moves));
+                self.in_columns = true;
+                return Ok(());
+            }
+        }
         let (centres, capsules, frustums, slab_boxes) = (&self.centres[first_pose..], &self.capsules, &self.frustums, &self.slab_boxes);
         for k in lo.z..=hi.z {
             let z = f64::from(k) * voxel;
@@ -703,6 +770,107 @@ impl Behind {
     }
 }
 
+/// The point with its x and z swapped: bounds made for rows along x, built from swapped points,
+/// bound columns along z (called with (y, x)).
+fn swap_xz(v: DVec3) -> DVec3 {
+    DVec3::new(v.z, v.y, v.x)
+}
+
+/// What bounds a column along z of [`fill_columns`], built with x and z swapped.
+struct ColumnBounds<'a> {
+    frustums: &'a [Frustum],
+    slab_boxes: &'a [[f64; 4]],
+    /// Per column of blocks, the z range with material (see `Sweep::material_columns`).
+    material: &'a [(i32, i32)],
+    first_block: IVec3,
+    blocks_x: usize,
+    behind: Option<Behind>,
+    inner: Option<(LineCapsule, [f64; 4])>,
+}
+
+/// The one-pose fast path of [`Sweep::build_in`] in columns along z (see [`Sweep::set_columns`]):
+/// the head at `inv` (world to tool), started from a pose the grids hold that lies `moves` mm
+/// away. Each voxel's point is its row's (`origin(y, z) + (i − lo.x)·step`, the origin in f64 as
+/// `DAffine3::transform_point3` sums it) and its value the row path's; only values below the
+/// cut-off are written (the patch holds the cut-off elsewhere), each widening its row's span.
+fn fill_columns(burr: &Burr, patch: &mut DensePatch, inv: &DAffine3, bounds: &ColumnBounds, (voxel, band, cutoff, moves): (f64, f64, f64, f64)) {
+    use crate::burr::profile::{Lanes, LANES};
+    let (lo, [nx, ny, _]) = (patch.index_min, patch.dims.map(|d| d as usize));
+    let hi = lo + IVec3::from_array(patch.dims.map(|d| d as i32)) - IVec3::ONE;
+    let inv_voxel = 1.0 / voxel;
+    let step = (inv.matrix3.x_axis * voxel).as_vec3();
+    let row_start = inv.matrix3.x_axis * (f64::from(lo.x) * voxel);
+    let (cutoff32, moved) = (cutoff as f32, moves as f32);
+    let deep_held = (-band - f64::from(DONE_SLACK) - 1e-6) as f32;
+    let plane = nx * ny;
+    let mut out = [0f32; LANES];
+    for i in lo.x..=hi.x {
+        let x = f64::from(i) * voxel;
+        let bx = ((i - bounds.first_block.x) / LEAF_DIM) as usize;
+        let at = (i - lo.x) as usize;
+        for j in lo.y..=hi.y {
+            let y = f64::from(j) * voxel;
+            let by = ((j - bounds.first_block.y) / LEAF_DIM) as usize;
+            let (m_lo, m_hi) = bounds.material[bx + bounds.blocks_x * by];
+            if m_lo > m_hi {
+                continue;
+            }
+            let (mut z_lo, mut z_hi) = (f64::INFINITY, f64::NEG_INFINITY);
+            for (frustum, b) in bounds.frustums.iter().zip(bounds.slab_boxes) {
+                if y < b[0] || y > b[1] || x < b[2] || x > b[3] {
+                    continue;
+                }
+                if let Some((l, h)) = frustum.line_interval(y, x) {
+                    z_lo = z_lo.min(l);
+                    z_hi = z_hi.max(h);
+                }
+            }
+            if z_lo > z_hi {
+                continue;
+            }
+            let (k_lo, k_hi) = (ceil_i32(z_lo * inv_voxel).max(lo.z).max(m_lo), floor_i32(z_hi * inv_voxel).min(hi.z).min(m_hi));
+            if k_lo > k_hi {
+                continue;
+            }
+            let gap = bounds.behind.map_or((1, 0), |b| b.row_gap(y, x, inv_voxel));
+            let deep = bounds
+                .inner
+                .filter(|(_, b)| y >= b[0] && y <= b[1] && x >= b[2] && x <= b[3])
+                .and_then(|(c, _)| c.x_interval(y, x))
+                .map_or((1, 0), |(l, h)| whole_voxels(l, h, inv_voxel));
+            // The row origin's first two terms, as `transform_point3` adds them.
+            let across = row_start + inv.matrix3.y_axis * y;
+            let column = at + nx * (j - lo.y) as usize;
+            for (a, b) in runs_outside(k_lo, k_hi, [gap, deep]) {
+                let mut k = a;
+                while k <= b {
+                    let n = ((b - k + 1) as usize).min(LANES);
+                    let mut lanes = Lanes { t: [at as f32; LANES], ..Default::default() };
+                    for l in 0..n {
+                        let z = f64::from(k + l as i32) * voxel;
+                        let origin = (across + inv.matrix3.z_axis * z + inv.translation).as_vec3();
+                        (lanes.x[l], lanes.y[l], lanes.z[l]) = (origin.x, origin.y, origin.z);
+                    }
+                    burr.sdf_lanes(&lanes, n, step, &mut out);
+                    for (l, d) in out[..n].iter().enumerate() {
+                        if *d + moved <= deep_held || !(*d < cutoff32) {
+                            continue;
+                        }
+                        let row = (j - lo.y) as usize + ny * (k + l as i32 - lo.z) as usize;
+                        patch.values[column + plane * (k + l as i32 - lo.z) as usize] = *d;
+                        let span = &mut patch.spans[2 * row..2 * row + 2];
+                        if span[0] == span[1] {
+                            span[0] = at as u32;
+                        }
+                        span[1] = at as u32 + 1;
+                    }
+                    k += n as i32;
+                }
+            }
+        }
+    }
+}
+
 /// ⌊x⌋ as an index (saturating; NaN gives 0). The baseline x86-64 target has no rounding
 /// instruction, and `f64::floor` there is a library call on every row.
 #[inline(always)]
@@ -872,6 +1040,33 @@ impl Frustum {
         let g0 = r0 - s * (cutoff + FRUSTUM_SLACK) + (cutoff + FRUSTUM_SLACK) * (1.0 + s * s).sqrt();
         let qa = 1.0 - u.x * u.x * (1.0 + s * s);
         Frustum { a, u, len, g0, s, qa, inv_2qa: 0.5 / qa, inv_ux: 1.0 / u.x }
+    }
+
+    /// [`x_interval`](Self::x_interval), and None as well for a line nearly parallel to the
+    /// axis that stays outside the frustum (which `x_interval` gives the whole slab): a column
+    /// along a near-vertical head.
+    fn line_interval(&self, y: f64, z: f64) -> Option<(f64, f64)> {
+        let (l, h) = self.x_interval(y, z)?;
+        if self.qa.abs() > 1e-6 || !(l.is_finite() && h.is_finite()) {
+            return Some((l, h));
+        }
+        // x_interval's quadratic (squared distance to the axis less the squared radius), its
+        // least over [l, h]: at an end, or at the vertex when it opens upward.
+        let (a, u, s) = (self.a, self.u, self.s);
+        let w = DVec3::new(-a.x, y - a.y, z - a.z);
+        let wu = w.dot(u);
+        let g = self.g0 + s * wu;
+        let qb = 2.0 * (w.x - u.x * (wu + s * g));
+        let qc = w.length_squared() - wu * wu - g * g;
+        let f = |x: f64| (self.qa * x + qb) * x + qc;
+        let mut least = f(l).min(f(h));
+        if self.qa > 0.0 {
+            let v = -qb * self.inv_2qa;
+            if v > l && v < h {
+                least = least.min(f(v));
+            }
+        }
+        (least <= 0.0).then_some((l, h))
     }
 
     /// The largest radius (at one end or the other).
