@@ -791,8 +791,8 @@ impl NestedBuilder<'_> {
         use Label::{Caries, Dentin, Enamel, Pulp};
         let mut step = |name: &str| if go_on(name) { Ok(()) } else { Err(stopped("segmentation")) };
         step("pulp and caries")?;
-        // The four unions are independent: built side by side (each is parallel inside, but
-        // has serial stretches that leave a core idle).
+        // The unions are built side by side (each is parallel inside, but has serial stretches
+        // that leave a core idle); the core's labels need the tooth's field, so it follows it.
         let this = &*self;
         let (inner, (core, tooth)) = rayon::join(
             || -> Result<_> {
