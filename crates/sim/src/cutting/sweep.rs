@@ -489,15 +489,9 @@ impl Sweep {
                     x_hi = x_hi.min(c_hi);
                 }
                 if slabbed {
-                    for (frustum, b) in frustums.iter().zip(slab_boxes) {
-                        if y < b[0] || y > b[1] || z < b[2] || z > b[3] {
-                            continue;
-                        }
-                        if let Some((l, h)) = frustum.x_interval(y, z) {
-                            x_lo = x_lo.min(l);
-                            x_hi = x_hi.max(h);
-                        }
-                    }
+                    let (l, h) = slab_hull(frustums, slab_boxes, y, z, Frustum::x_interval);
+                    x_lo = x_lo.min(l);
+                    x_hi = x_hi.max(h);
                 }
                 if x_lo > x_hi {
                     continue;
@@ -815,16 +809,7 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, inv: &DAffine3, bounds: &Co
             if m_lo > m_hi {
                 continue;
             }
-            let (mut z_lo, mut z_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-            for (frustum, b) in bounds.frustums.iter().zip(bounds.slab_boxes) {
-                if y < b[0] || y > b[1] || x < b[2] || x > b[3] {
-                    continue;
-                }
-                if let Some((l, h)) = frustum.line_interval(y, x) {
-                    z_lo = z_lo.min(l);
-                    z_hi = z_hi.max(h);
-                }
-            }
+            let (z_lo, z_hi) = slab_hull(bounds.frustums, bounds.slab_boxes, y, x, Frustum::line_interval);
             if z_lo > z_hi {
                 continue;
             }
@@ -869,6 +854,23 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, inv: &DAffine3, bounds: &Co
             }
         }
     }
+}
+
+/// The hull of the slabs' intervals along one line, `(p, q)` its place across (a row's (y, z), a
+/// column's (y, x)); each slab's box is tested first, the cheaper test. Empty: lo > hi.
+#[inline(always)]
+fn slab_hull(frustums: &[Frustum], boxes: &[[f64; 4]], p: f64, q: f64, interval: impl Fn(&Frustum, f64, f64) -> Option<(f64, f64)>) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for (frustum, b) in frustums.iter().zip(boxes) {
+        if p < b[0] || p > b[1] || q < b[2] || q > b[3] {
+            continue;
+        }
+        if let Some((l, h)) = interval(frustum, p, q) {
+            lo = lo.min(l);
+            hi = hi.max(h);
+        }
+    }
+    (lo, hi)
 }
 
 /// ⌊x⌋ as an index (saturating; NaN gives 0). The baseline x86-64 target has no rounding
