@@ -1054,12 +1054,7 @@ impl Frustum {
         }
         // x_interval's quadratic (squared distance to the axis less the squared radius), its
         // least over [l, h]: at an end, or at the vertex when it opens upward.
-        let (a, u, s) = (self.a, self.u, self.s);
-        let w = DVec3::new(-a.x, y - a.y, z - a.z);
-        let wu = w.dot(u);
-        let g = self.g0 + s * wu;
-        let qb = 2.0 * (w.x - u.x * (wu + s * g));
-        let qc = w.length_squared() - wu * wu - g * g;
+        let (_, qb, qc) = self.along_x(y, z);
         let f = |x: f64| (self.qa * x + qb) * x + qc;
         let mut least = f(l).min(f(h));
         if self.qa > 0.0 {
@@ -1076,17 +1071,25 @@ impl Frustum {
         self.g0.max(self.g0 + self.s * self.len)
     }
 
-    /// An x-interval of the line {(x, y, z)} holding its points within the frustum, if any.
-    #[inline]
-    fn x_interval(&self, y: f64, z: f64) -> Option<(f64, f64)> {
+    /// Along the line {(x, y, z)}: the height of its point at x = 0 over the axis ((p − a)·u),
+    /// and the linear and constant terms of the squared distance to the axis line less the
+    /// squared radius at the foot's height (quadratic in x, `qa` its square term; p(x) − a = w + x·X).
+    #[inline(always)]
+    fn along_x(&self, y: f64, z: f64) -> (f64, f64, f64) {
         let (a, u, s) = (self.a, self.u, self.s);
-        // p(x) − a = w + x·X: the squared distance to the axis line minus the squared radius at
-        // the foot's height is quadratic in x, the height linear.
         let w = DVec3::new(-a.x, y - a.y, z - a.z);
         let wu = w.dot(u);
         let g = self.g0 + s * wu;
         let qb = 2.0 * (w.x - u.x * (wu + s * g));
         let qc = w.length_squared() - wu * wu - g * g;
+        (wu, qb, qc)
+    }
+
+    /// An x-interval of the line {(x, y, z)} holding its points within the frustum, if any.
+    #[inline]
+    fn x_interval(&self, y: f64, z: f64) -> Option<(f64, f64)> {
+        let u = self.u;
+        let (wu, qb, qc) = self.along_x(y, z);
         // Within the slab 0 ≤ (p − a)·u ≤ len.
         let (mut l, mut h) = if u.x.abs() > 1e-12 {
             let (s0, s1) = (-wu * self.inv_ux, (self.len - wu) * self.inv_ux);
