@@ -146,7 +146,5 @@ std::unique_ptr<LevelSet> level_set_from_dense(std::array<uint32_t, 3> dims,
 std::unique_ptr<Reader> new_reader(const LevelSet& grid);
 std::unique_ptr<GridList> new_grid_list();
 std::unique_ptr<GridList> read_bytes(rust::Slice<const uint8_t> bytes);
-rust::String probe_read(rust::Slice<const uint8_t> bytes, uint64_t max_bytes, uint32_t timeout_ms,
-                        std::vector<uint8_t>& clean);
 
 }  // namespace dentsim::vdb

@@ -25,9 +25,30 @@ fn main() {
     for lib in ["openvdb", "tbb", "Imath-3_1"] {
         println!("cargo:rustc-link-lib={lib}");
     }
+    build_reader(&vdb.join("read_child.cc"));
     println!("cargo:rerun-if-changed=src/sys.rs");
     println!("cargo:rerun-if-changed=src/peer.rs");
+    println!("cargo:rerun-if-changed={}", vdb.display());
     for entry in std::fs::read_dir(&vdb).expect("cpp/vdb exists") {
         println!("cargo:rerun-if-changed={}", entry.expect("readable dir").path().display());
     }
+}
+
+/// The reader program `read_file` runs for each hostile read (`src/reader_process.rs` embeds it),
+/// linked into OUT_DIR with the same compiler. Sanitizer flags meant for the library's objects are
+/// left out: the reader is a program of its own, and the library's guard is what they test.
+fn build_reader(source: &Path) {
+    let out = Path::new(&std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR")).join("dentsim-vdb-reader");
+    let compiler = cc::Build::new().cpp(true).cargo_warnings(false).get_compiler();
+    let mut cmd = std::process::Command::new(compiler.path());
+    cmd.args(compiler.args().iter().filter(|a| {
+        let a = a.to_string_lossy();
+        !a.starts_with("-fsanitize") && !a.starts_with("-fno-sanitize") && a != "-c"
+    }));
+    cmd.args(["-std=c++17", "-O2", "-g0", "-Wno-deprecated-declarations", "-o"])
+        .arg(&out)
+        .arg(source)
+        .args(["-lopenvdb", "-ltbb", "-lImath-3_1", "-lpthread"]);
+    let status = cmd.status().unwrap_or_else(|e| panic!("running {cmd:?}: {e}"));
+    assert!(status.success(), "building the reader program failed: {cmd:?}");
 }

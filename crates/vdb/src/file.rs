@@ -52,7 +52,7 @@ pub fn read_file(path: &Path) -> Result<Vec<FileGrid>> {
 }
 
 /// Reads every grid of a .vdb file. A hostile file gives an error naming it, never a crash: the
-/// layout is checked against the file's size, only a child process parses the file's bytes with
+/// layout is checked against the file's size, only a reader process parses the file's bytes with
 /// OpenVDB (its reader can crash or overflow a buffer on corrupt data) and hands the grids back
 /// as OpenVDB's writer writes them; each float grid's voxel size and box are checked against
 /// `limits`.
@@ -72,18 +72,14 @@ pub fn read_file_with(path: &Path, limits: &ReadLimits) -> Result<Vec<FileGrid>>
 /// [`read_file_with`] on bytes already in memory; errors are one line, without the file's name.
 pub fn read_bytes(bytes: &[u8], limits: &ReadLimits) -> std::result::Result<Vec<FileGrid>, String> {
     check_layout(bytes)?;
-    let timeout_ms = (limits.timeout_s as u64 + bytes.len() as u64 / (4 << 20)).saturating_mul(1000).min(u32::MAX as u64) as u32;
+    let timeout_ms = (limits.timeout_s as u64 + bytes.len() as u64 / (4 << 20)).saturating_mul(1000);
     // A corrupt length can ask for gigabytes; a real level set's tree is at most tens of times
     // its compressed file (inactive values are not stored), so the child gets far less than
     // the whole limit and fails fast.
     let probe_bytes = limits.max_bytes.min((1 << 30) + 64 * bytes.len() as u64);
-    let mut clean = cxx::CxxVector::<u8>::new();
-    let refused = ffi::probe_read(bytes, probe_bytes, timeout_ms, clean.pin_mut()).map_err(|e| one_line(e.what()))?;
-    if !refused.is_empty() {
-        return Err(one_line(&refused));
-    }
+    let clean = crate::reader_process::guarded_read(bytes, probe_bytes, timeout_ms).map_err(|e| one_line(&e))?;
     // What OpenVDB's writer made of the grids the child read: never the file's own bytes.
-    read_unguarded(clean.as_slice(), limits)
+    read_unguarded(&clean, limits)
 }
 
 /// Reads in this process without the child's guard: for the C++ fuzz target and tests of the

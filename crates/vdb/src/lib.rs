@@ -9,6 +9,7 @@ mod level_set;
 mod mesh;
 #[cfg(feature = "peer")]
 mod peer;
+mod reader_process;
 mod sys;
 
 pub use error::{Error, Result};

@@ -125,7 +125,6 @@ pub(crate) mod ffi {
 
         fn new_grid_list() -> UniquePtr<GridList>;
         fn read_bytes(bytes: &[u8]) -> Result<UniquePtr<GridList>>;
-        fn probe_read(bytes: &[u8], max_bytes: u64, timeout_ms: u32, clean: Pin<&mut CxxVector<u8>>) -> Result<String>;
         fn push(self: Pin<&mut GridList>, grid: &LevelSet);
         fn len(self: &GridList) -> usize;
         fn grid_name(self: &GridList, i: usize) -> Result<String>;
