@@ -146,7 +146,8 @@ fn guarded_read_by(
     let mut input = memfd(c"dentsim-vdb-input", libc::MFD_CLOEXEC).map_err(io_err("hold the bytes"))?;
     input.write_all(bytes).map_err(io_err("hold the bytes"))?;
     let mut output = memfd(c"dentsim-vdb-read", libc::MFD_CLOEXEC).map_err(io_err("make room"))?;
-    let deadline = Instant::now() + Duration::from_millis(timeout_ms);
+    // Clamped (~35 years) so a huge timeout cannot overflow the clock.
+    let deadline = Instant::now() + Duration::from_millis(timeout_ms.min(1 << 40));
     let mut child = spawn(&input, &output)?;
     drop(input);
     let (status, message) = match wait(&mut child, deadline) {
