@@ -325,19 +325,10 @@ impl LevelSet {
     /// reused: no allocation once it is large enough). [`Measure::Skip`] leaves the removed volume
     /// at 0: its curvature term costs as much again as the cut.
     pub fn subtract_logged(&mut self, patch: &DensePatch, offset: f32, measure: Measure, log: &mut Vec<VoxelChange>) -> Result<CutStats> {
-        self.subtract_logged_runs(patch, &[], offset, measure, log)
-    }
-
-    /// [`subtract_logged`](Self::subtract_logged) over the patch's column runs instead of its
-    /// row spans: `runs` is (column `i + nx·j`, first `k`, end `k`) triples, flattened, outside
-    /// which every value is at least the cut-off (as outside the spans). It changes the same
-    /// voxels to the same values, reading them along z, the leaves' fastest axis, and logs them
-    /// in the runs' order; empty `runs`: the spans.
-    pub fn subtract_logged_runs(&mut self, patch: &DensePatch, runs: &[u32], offset: f32, measure: Measure, log: &mut Vec<VoxelChange>) -> Result<CutStats> {
         let measured = measure == Measure::Volume;
         let s = self
             .edit()
-            .subtract_logged(patch.index_min.to_array(), patch.dims, &patch.values, &patch.spans, runs, offset, measured)
+            .subtract_logged(patch.index_min.to_array(), patch.dims, &patch.values, &patch.spans, offset, measured)
             .map_err(openvdb("subtract tool patch"))?;
         // Copied in one go: a push per voxel across the bridge cost a tenth of the cut.
         log.extend_from_slice(self.inner.last_changes());

@@ -103,7 +103,6 @@ pub(crate) mod ffi {
             dims: [u32; 3],
             tool: &[f32],
             spans: &[u32],
-            runs: &[u32],
             offset: f32,
             measured: bool,
         ) -> Result<CutStats>;
