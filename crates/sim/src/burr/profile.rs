@@ -373,10 +373,13 @@ fn sdf_points<const N: usize>(pieces: &[Edge32], closing: &Edge32, rho: [f32; N]
                 let (ax, az) = (rho[l] - e.a[0], z[l] - e.a[1]);
                 let (bx, bz) = (rho[l] - e.b[0], z[l] - e.b[1]);
                 // One root per arc, of the centre's square within the span, else of the nearer
-                // end's: the values of a root each (correctly rounded and monotone).
-                let square = if in_span { vx * vx + vz * vz } else { (ax * ax + az * az).min(bx * bx + bz * bz) };
-                let root = square.sqrt();
-                arc[l] = arc[l].min(if in_span { (root - e.radius).abs() } else { root });
+                // end's: the values of a root each (correctly rounded and monotone). Picked by
+                // bit masks: an `if` here made the compiler branch per lane and lose the vectors.
+                let keep = 0u32.wrapping_sub(u32::from(in_span));
+                let pick = |a: f32, b: f32| f32::from_bits((a.to_bits() & keep) | (b.to_bits() & !keep));
+                let root = pick(vx * vx + vz * vz, (ax * ax + az * az).min(bx * bx + bz * bz)).sqrt();
+                // (Outside the span, root − 0 is the root itself, bit for bit: it is not negative.)
+                arc[l] = arc[l].min((root - pick(e.radius, 0.0)).abs());
                 // In the circular segment between the arc and its chord.
                 let (qx, qz) = (rho_q[l] - e.centre[0], z[l] - e.centre[1]);
                 let side = e.ab[0] * (z[l] - e.a[1]) - e.ab[1] * (rho_q[l] - e.a[0]);
