@@ -115,12 +115,16 @@ struct Edge32 {
     span: [[f32; 2]; 2],
     /// +1 or −1: the side of the chord (a → b) the arc lies on.
     side: f32,
+    /// Whether a ray toward +ρ can cross the chord: not when it is level (the crossing test is
+    /// half-open in z), nor when it lies on the axis (the test looks from ρ > 0).
+    crossable: bool,
 }
 
 impl Edge32 {
     fn new(e: &Edge) -> Self {
         let v = |p: DVec2| [p.x as f32, p.y as f32];
         let mut out = Edge32 { a: v(e.a), b: v(e.b), ab: v(e.ab), inv_len2: e.inv_len2 as f32, dx_dz: e.dx_dz as f32, ..Default::default() };
+        out.crossable = out.a[1] != out.b[1] && !(out.a[0] == 0.0 && out.b[0] == 0.0);
         if let Some(Piece::Arc { centre, radius, a, b, ccw }) = e.arc {
             let (s, t) = if ccw { (a - centre, b - centre) } else { (b - centre, a - centre) };
             let mid = if (s + t).length_squared() > 1e-24 { s + t } else { s.perp() };
@@ -365,14 +369,17 @@ fn sdf_points<const N: usize>(pieces: &[Edge32], closing: &Edge32, rho: [f32; N]
         if e.arc {
             for l in 0..N {
                 let (vx, vz) = (rho[l] - e.centre[0], z[l] - e.centre[1]);
-                let len = (vx * vx + vz * vz).sqrt();
                 let in_span = (e.span[0][0] * vz - e.span[0][1] * vx >= 0.0) & (vx * e.span[1][1] - vz * e.span[1][0] >= 0.0);
                 let (ax, az) = (rho[l] - e.a[0], z[l] - e.a[1]);
                 let (bx, bz) = (rho[l] - e.b[0], z[l] - e.b[1]);
-                // One root of the nearer end's square: the same value (a root is monotone and
-                // correctly rounded), one root fewer.
-                let ends = (ax * ax + az * az).min(bx * bx + bz * bz).sqrt();
-                arc[l] = arc[l].min(if in_span { (len - e.radius).abs() } else { ends });
+                // One root per arc, of the centre's square within the span, else of the nearer
+                // end's: the values of a root each (correctly rounded and monotone). Picked by
+                // bit masks: an `if` here made the compiler branch per lane and lose the vectors.
+                let keep = 0u32.wrapping_sub(u32::from(in_span));
+                let pick = |a: f32, b: f32| f32::from_bits((a.to_bits() & keep) | (b.to_bits() & !keep));
+                let root = pick(vx * vx + vz * vz, (ax * ax + az * az).min(bx * bx + bz * bz)).sqrt();
+                // (Outside the span, root − 0 is the root itself, bit for bit: it is not negative.)
+                arc[l] = arc[l].min((root - pick(e.radius, 0.0)).abs());
                 // In the circular segment between the arc and its chord.
                 let (qx, qz) = (rho_q[l] - e.centre[0], z[l] - e.centre[1]);
                 let side = e.ab[0] * (z[l] - e.a[1]) - e.ab[1] * (rho_q[l] - e.a[0]);
@@ -386,12 +393,17 @@ fn sdf_points<const N: usize>(pieces: &[Edge32], closing: &Edge32, rho: [f32; N]
                 line2[l] = line2[l].min(dx * dx + dz * dz);
             }
         }
-        for l in 0..N {
-            inside[l] ^= e.crossed_by(rho_q[l], z[l]) as u32;
+        // (Uncrossable chords are skipped: each would flip no lane.)
+        if e.crossable {
+            for l in 0..N {
+                inside[l] ^= e.crossed_by(rho_q[l], z[l]) as u32;
+            }
         }
     }
-    for l in 0..N {
-        inside[l] ^= closing.crossed_by(rho_q[l], z[l]) as u32;
+    if closing.crossable {
+        for l in 0..N {
+            inside[l] ^= closing.crossed_by(rho_q[l], z[l]) as u32;
+        }
     }
     for (l, o) in out.iter_mut().enumerate() {
         let d = line2[l].sqrt().min(arc[l]);
