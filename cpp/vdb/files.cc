@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <streambuf>
 
+#include "bytes_buf.h"
 #include "impl.h"
 
 namespace dentsim::vdb {
@@ -73,24 +74,6 @@ void GridList::write_file(rust::Str path) const {
   file.close();
 }
 
-// An istream over borrowed bytes (no copy), seekable as OpenVDB's reader may ask.
-namespace {
-struct BytesBuf : std::streambuf {
-  BytesBuf(const uint8_t* data, size_t size) {
-    char* p = const_cast<char*>(reinterpret_cast<const char*>(data));
-    setg(p, p, p + size);
-  }
-  pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override {
-    off_type base = dir == std::ios_base::beg ? 0 : dir == std::ios_base::cur ? gptr() - eback() : egptr() - eback();
-    return seekpos(pos_type(base + off), std::ios_base::in);
-  }
-  pos_type seekpos(pos_type pos, std::ios_base::openmode) override {
-    if (off_type(pos) < 0 || off_type(pos) > egptr() - eback()) return pos_type(off_type(-1));
-    setg(eback(), eback() + off_type(pos), egptr());
-    return pos;
-  }
-};
-}  // namespace
 
 // Every grid of a .vdb file's bytes, loaded whole (no delayed loading: a corrupt leaf must fail
 // here, not in a later cut). Throws on any error the reader detects.

@@ -30,6 +30,8 @@
 #include <string>
 #include <vector>
 
+#include "bytes_buf.h"
+
 #if defined(__SANITIZE_ADDRESS__)
 #define DENTSIM_ASAN 1
 #elif defined(__has_feature)
@@ -43,19 +45,7 @@
 
 namespace {
 
-// An istream over the bytes in memory (no copy), seekable as OpenVDB's reader may ask.
-struct BytesBuf : std::streambuf {
-  BytesBuf(char* data, size_t size) { setg(data, data, data + size); }
-  pos_type seekoff(off_type off, std::ios_base::seekdir dir, std::ios_base::openmode) override {
-    off_type base = dir == std::ios_base::beg ? 0 : dir == std::ios_base::cur ? gptr() - eback() : egptr() - eback();
-    return seekpos(pos_type(base + off), std::ios_base::in);
-  }
-  pos_type seekpos(pos_type pos, std::ios_base::openmode) override {
-    if (off_type(pos) < 0 || off_type(pos) > egptr() - eback()) return pos_type(off_type(-1));
-    setg(eback(), eback() + off_type(pos), egptr());
-    return pos;
-  }
-};
+using dentsim::vdb::BytesBuf;
 
 int message_fd = -1;
 
