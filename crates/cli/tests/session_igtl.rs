@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 
-use dentsim_sim::session::log::SessionLog;
+use dentsim_sim::session::log::{SessionLog, TickRecord, FLAG_DEVICE_FAULT};
 use dentsim_sim::tissues::capsule::CapsuleTooth;
 use dentsim_sim::tissues::table::TissueTable;
 
@@ -58,22 +58,60 @@ fn a_reference_library_arm_cuts_the_phantom_and_gets_forces_back() {
     assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
     let peer = server.wait_with_output().unwrap();
     assert!(peer.status.success(), "{}", String::from_utf8_lossy(&peer.stderr));
-    // Every pose answered with six values; pressing down on the top pushes back up (+z).
-    let answers: Vec<Vec<f64>> = String::from_utf8_lossy(&peer.stdout)
+    // Every pose answered with six values (SENSOR carries f64; the peer prints them exactly).
+    let answers: Vec<[f64; 6]> = String::from_utf8_lossy(&peer.stdout)
         .lines()
         .filter(|l| *l != "listening")
-        .map(|l| l.split_whitespace().map(|v| v.parse().unwrap()).collect())
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().skip(1).map(|v| v.parse().unwrap()).collect();
+            v.try_into().unwrap_or_else(|v| panic!("six values per answer: {v:?}"))
+        })
         .collect();
     assert_eq!(answers.len(), 1500);
-    assert!(answers.iter().all(|a| a.len() == 7));
-    let max_fz = answers.iter().map(|a| a[3]).fold(f64::MIN, f64::max);
-    assert!(max_fz > 0.1, "the arm felt the tooth: max fz {max_fz}");
     let summary = json(&out.join("summary.json"));
-    assert_eq!(summary["realtime"], true, "a live device ticks on the wall clock");
     let enamel = summary["tissues"].as_array().unwrap().iter().find(|t| t["name"] == "enamel").unwrap();
-    assert!(enamel["removed_mm3"].as_f64().unwrap() > 0.0, "{enamel}");
+    assert_eq!(summary["realtime"], true, "a live device ticks on the wall clock");
+    assert!(enamel["removed_mm3"].as_f64().unwrap() > 0.0 && enamel["contact_s"].as_f64().unwrap() > 0.0, "{enamel}");
     let log = SessionLog::read(&out.join("session.dslog")).unwrap();
     assert!(log.header.device.starts_with("igtl://127.0.0.1:"), "{}", log.header.device);
+    // What the arm got is what the session rendered, in order: a tick that takes a new pose
+    // pushes its force, and the I/O thread answers the next pose with the newest one pushed.
+    let rendered = |r: &TickRecord| [r.force.x, r.force.y, r.force.z, r.torque.x, r.torque.y, r.torque.z];
+    let mut pushed: Vec<[f64; 6]> = Vec::new();
+    // The peer's last pose (an f32 matrix): its force, if a tick took it, answers nothing.
+    let mut answered = Vec::new();
+    for (i, r) in log.records.iter().enumerate() {
+        let new_pose = i == 0 || r.pose != log.records[i - 1].pose;
+        if new_pose && r.flags & FLAG_DEVICE_FAULT == 0 {
+            pushed.push(rendered(r));
+            if r.pose.translation.z != f64::from(4.6f32) {
+                answered.push(rendered(r));
+            }
+        }
+    }
+    let faults = log.records.iter().any(|r| r.flags & FLAG_DEVICE_FAULT != 0);
+    let mut at = 0;
+    for (i, a) in answers.iter().enumerate().filter(|(_, a)| **a != [0.0; 6]) {
+        let found = pushed[at..].iter().position(|p| p == a);
+        at += found.unwrap_or_else(|| panic!("answer {i} {a:?} is not a force the session rendered after answer {at}"));
+    }
+    // Every force pushed for a pose that another pose followed reached the arm, unless a device
+    // fault's zero overtook it.
+    let fz_max = |f: &[[f64; 6]]| f.iter().map(|f| f[2]).fold(0.0, f64::max);
+    let (felt, sent) = (fz_max(&answers), fz_max(&answered));
+    if faults {
+        assert!(felt <= sent, "the arm felt {felt} N, more than the session rendered ({sent} N)");
+    } else {
+        assert_eq!(felt, sent, "the arm felt {felt} N of the {sent} N the session rendered");
+    }
+    // Pressing down on the top pushes back up (+z), unless the machine could not keep the tick's
+    // deadlines and the watchdog ramped the force down (a loaded machine without SCHED_FIFO).
+    let trips = summary["watchdog_trips"].as_u64().unwrap();
+    assert!(
+        felt > 0.1 || trips > 0,
+        "the arm felt the tooth: max fz {felt} N, {} missed deadlines, no watchdog trip",
+        summary["missed_deadlines"]
+    );
     assert!(out.join("tissues.vdb").exists());
 }
 

@@ -96,7 +96,7 @@ static int server(int argc, char** argv) {
     double rt = std::chrono::duration<double, std::micro>(got - sent).count();
     char line[256];
     int n = std::snprintf(line, sizeof line, "%.3f", rt);
-    for (unsigned k = 0; k < 6; ++k) n += std::snprintf(line + n, sizeof line - n, " %.9g", sensor->GetValue(k));
+    for (unsigned k = 0; k < 6; ++k) n += std::snprintf(line + n, sizeof line - n, " %.17g", sensor->GetValue(k));
     lines.push_back(line);
   }
   socket->CloseSocket();
