@@ -112,9 +112,11 @@ fn a_paused_session_renders_no_force_and_logs_nothing_then_resumes() {
     let options = SessionOptions { realtime: true, log_path: Some(log.clone()), mesher_hz: None, raise_priority: false, ..Default::default() };
     let session = Session::start(model, dev, options).unwrap();
     // Pressing on the enamel first, then paused mid-session.
-    while session.latest().is_none_or(|r| r.force.length() < 0.1) {
+    let pressing = |s: &Session| s.latest().is_some_and(|r| r.force.length() >= 0.1);
+    while session.is_running() && !pressing(&session) {
         std::thread::sleep(std::time::Duration::from_millis(1));
     }
+    assert!(pressing(&session), "the hand pressed on the enamel before its end: {:?}", session.latest().map(|r| r.force));
     session.set_paused(true);
     assert!(session.is_paused());
     std::thread::sleep(std::time::Duration::from_millis(200));
