@@ -10,12 +10,14 @@ else ()
 endif ()
 set(DENTSIM_FFI_LIB "${DENTSIM_CARGO_TARGET_DIR}/release/libdentsim_ffi.a")
 
-# Always run cargo: it knows whether anything changed, CMake does not.
+# Always run cargo: it knows whether anything changed, CMake does not. The whole workspace, as
+# scripts/setup.sh builds it: `-p dentsim-ffi` alone resolves other features (no bench crate, so
+# no `peer` in dentsim-vdb) and rebuilt the core and its C++ a second time.
 add_custom_target(dentsim_ffi_cargo
-  COMMAND "${CARGO_EXECUTABLE}" build --release -p dentsim-ffi
+  COMMAND "${CARGO_EXECUTABLE}" build --release --workspace
   WORKING_DIRECTORY "${DENTSIM_SOURCE_ROOT}"
   BYPRODUCTS "${DENTSIM_FFI_LIB}"
-  COMMENT "cargo build --release -p dentsim-ffi"
+  COMMENT "cargo build --release --workspace"
   USES_TERMINAL)
 
 find_package(Threads REQUIRED)

@@ -36,7 +36,7 @@ def watch(proxy, abort_at=None):
 
 
 scan = simple.OpenDataFile(scan_path)
-tooth = DentalTissuesFromScan(Input=scan, VoxelSizemm=0.08, UseSeedPoint=1, SeedPointmm=seed)
+tooth = DentalTissuesFromScan(Input=scan, VoxelSizemm=0.12, UseSeedPoint=1, SeedPointmm=seed)
 seen, stop = watch(tooth)
 tooth.UpdatePipeline()
 stop()
@@ -45,7 +45,7 @@ print("Tissues From Scan progress:", [round(p, 2) for p in seen[:12]], "...", le
 check(len(set(middle)) >= 3, "segmentation reports progress along the way: %s" % seen)
 check(seen == sorted(seen) and seen[-1] == 1.0, "progress only grows, to 1: %s" % seen)
 
-prep = DentalPreparation(Tissues=tooth, TissueVoxelSizemm=0.08, ToolPathFileCSV=csv, Burr="cylinder_flat:1.0:4")
+prep = DentalPreparation(Tissues=tooth, TissueVoxelSizemm=0.12, ToolPathFileCSV=csv, Burr="cylinder_flat:1.0:4")
 seen, stop = watch(prep)
 prep.UpdatePipeline()
 stop()
@@ -96,18 +96,18 @@ def aborted_run(proxy, abort_at):
 
 
 # Segmentation stops at its next step, not when it has finished.
-tooth.VoxelSizemm = 0.081  # a change, so it runs again
+tooth.VoxelSizemm = 0.121  # a change, so it runs again
 seen, text = aborted_run(tooth, abort_at=0.05)
 check("stopped on request" in text, "the segmentation's abort is reported: %r" % text)
 partial = [p for p in seen if p < 1.0]
 check(partial and partial[-1] < 0.9, "segmentation stopped before its level sets were done: %s" % seen)
 check(servermanager.Fetch(tooth).GetNumberOfBlocks() == 0, "an aborted segmentation leaves an empty output")
-tooth.VoxelSizemm = 0.08
+tooth.VoxelSizemm = 0.12
 tooth.UpdatePipeline()
 check(servermanager.Fetch(tooth).GetNumberOfBlocks() == 3, "segmentation runs again after the abort")
 
 # The assessment of the box against the tooth it was cut from.
-assessment = DentalPreparationAssessment(Prepared=prep, Original=tooth, TissueVoxelSizemm=0.08)
+assessment = DentalPreparationAssessment(Prepared=prep, Original=tooth, TissueVoxelSizemm=0.12)
 seen, stop = watch(assessment)
 assessment.UpdatePipeline()
 stop()
@@ -117,14 +117,14 @@ check(len(set(middle)) >= 3, "the assessment reports progress along the way: %s"
 rows = table_of(assessment)
 check(abs(rows["enamel removed"] / full["enamel"] - 1) < 0.05,
       "the assessment grades the box: %s vs %s" % (rows["enamel removed"], full["enamel"]))
-assessment.TissueVoxelSizemm = 0.081
+assessment.TissueVoxelSizemm = 0.121
 seen, text = aborted_run(assessment, abort_at=0.05)
 check("stopped on request" in text, "the assessment's abort is reported: %r" % text)
 partial = [p for p in seen if p < 1.0]
 check(partial and partial[-1] < 0.9, "the assessment stopped part-way: %s" % seen)
 check(servermanager.Fetch(assessment).GetNumberOfPoints() == 0 and servermanager.Fetch(assessment, idx=1).GetNumberOfRows() == 0,
       "an aborted assessment leaves empty outputs")
-assessment.TissueVoxelSizemm = 0.08
+assessment.TissueVoxelSizemm = 0.12
 assessment.UpdatePipeline()
 again = table_of(assessment)
 check(again == rows, "the assessment runs again after the abort: %s vs %s" % (again, rows))

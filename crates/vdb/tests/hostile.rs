@@ -140,7 +140,7 @@ fn metadata_of_another_type_is_replaced_not_an_abort() {
 }
 
 /// Reads from many threads at once, while others run OpenVDB's threaded CSG and mesher: every
-/// read's forked child gets the file back whole, none waits on another's pipe or lock (a read
+/// read's reader process gets the file back whole, none waits on another's pipe or lock (a read
 /// once timed out in a parallel test run while its file was valid).
 #[test]
 fn reads_from_many_threads_beside_threaded_work_all_succeed() {
