@@ -258,7 +258,7 @@ impl Cutter {
             self.log.reserve(self.sweep.patch.values.len());
             let measure = if budget.is_some() { Measure::Volume } else { self.measure };
             self.report.measured &= measure == Measure::Volume;
-            let stats = tissue.grid.subtract_logged(&self.sweep.patch, offset, measure, &mut self.log)?;
+            let stats = tissue.grid.subtract_logged_runs(&self.sweep.patch, self.sweep.column_runs(), offset, measure, &mut self.log)?;
             if let Some(b) = budget {
                 self.bank.spend(t, stats.removed_mm3, b);
             }

@@ -16,7 +16,7 @@
 //! stroke continuing the last cannot change (see `Behind` and [`Burr::inner_capsule`]). With one
 //! pose to evaluate, rows are bounded by the head's slabs ([`Burr::axis_frustums`]) and written by a
 //! fast path that gives the general loop's values bit for bit (a test pins the two together).
-use dentsim_vdb::{block_counts, DensePatch, LEAF_DIM};
+use dentsim_vdb::{block_counts, ColumnRuns, DensePatch, LEAF_DIM};
 use glam::{DAffine3, DMat3, DQuat, DVec3, IVec3};
 
 use crate::burr::Burr;
@@ -99,6 +99,8 @@ pub struct Sweep {
     columns: bool,
     /// Whether the last build was (see [`Sweep::built_in_columns`]).
     in_columns: bool,
+    /// With the last build in columns, its column runs (see [`Sweep::column_runs`]).
+    column_runs: ColumnRuns,
 }
 
 /// One row run's distances for a non-round head (see [`Sweep::build_in`]), voxel by voxel.
@@ -146,6 +148,10 @@ impl Sweep {
         self.material.reserve(blocks.saturating_sub(self.material.len()));
         self.material_rows.reserve(blocks.saturating_sub(self.material_rows.len()));
         self.material_columns.reserve(blocks.saturating_sub(self.material_columns.len()));
+        // At most three runs a column (see `runs_outside`), four numbers each, and a value per voxel.
+        let runs = &mut self.column_runs;
+        runs.runs.reserve((12 * side as usize * side as usize).saturating_sub(runs.runs.len()));
+        runs.values.reserve(total.saturating_sub(runs.values.len()));
         self.rows.reserve(side as usize);
         // The sub-poses of a translation that long (rotation adds more; those still grow once).
         let poses = (travel_mm.max(0.0) / (2.0 * GAP_VOXELS * voxel)).ceil().min(MAX_SUBSTEPS as f64) as usize + 2;
@@ -184,6 +190,13 @@ impl Sweep {
     /// Whether the last build evaluated its head in columns along z (see [`Self::set_columns`]).
     pub fn built_in_columns(&self) -> bool {
         self.in_columns
+    }
+
+    /// The last build's runs along z, as `LevelSet::subtract_logged_runs` takes them: each from a
+    /// run's first value below the cut-off to its last, with its values; every value outside them
+    /// is the cut-off. Empty unless built in columns.
+    pub fn column_runs(&self) -> &ColumnRuns {
+        &self.column_runs
     }
 
     /// Voxels along each side of the box a cut of `travel_mm` works in (what [`Self::reserve`]
@@ -248,6 +261,7 @@ impl Sweep {
         let n = n as usize;
         self.substeps = n;
         self.in_columns = false;
+        self.column_runs.clear();
         self.inverse.clear();
         self.centres.clear();
         self.axes.clear();
@@ -446,7 +460,7 @@ impl Sweep {
                     behind: behind.map(|b| Behind { origin: swap_xz(b.origin), across: swap_xz(b.across), axis: swap_xz(b.axis), height: b.height }),
                     inner: inner_axis.map(|(a, b, r)| capsule_across((swap_xz(a), swap_xz(b), r))),
                 };
-                fill_columns(burr, patch, &self.inverse[1], &bounds, (voxel, band, cutoff, moves));
+                fill_columns(burr, patch, &mut self.column_runs, &self.inverse[1], &bounds, (voxel, band, cutoff, moves));
                 self.in_columns = true;
                 return Ok(());
             }
@@ -786,8 +800,10 @@ struct ColumnBounds<'a> {
 /// the head at `inv` (world to tool), started from a pose the grids hold that lies `moves` mm
 /// away. Each voxel's point is its row's (`origin(y, z) + (i − lo.x)·step`, the origin in f64 as
 /// `DAffine3::transform_point3` sums it) and its value the row path's; only values below the
-/// cut-off are written (the patch holds the cut-off elsewhere), each widening its row's span.
-fn fill_columns(burr: &Burr, patch: &mut DensePatch, inv: &DAffine3, bounds: &ColumnBounds, (voxel, band, cutoff, moves): (f64, f64, f64, f64)) {
+/// cut-off are written (the patch holds the cut-off elsewhere), each widening its row's span,
+/// and each run's part from its first such value to its last goes to `runs` with its values (see
+/// [`Sweep::column_runs`]).
+fn fill_columns(burr: &Burr, patch: &mut DensePatch, runs: &mut ColumnRuns, inv: &DAffine3, bounds: &ColumnBounds, (voxel, band, cutoff, moves): (f64, f64, f64, f64)) {
     use crate::burr::profile::{Lanes, LANES};
     let (lo, [nx, ny, _]) = (patch.index_min, patch.dims.map(|d| d as usize));
     let hi = lo + IVec3::from_array(patch.dims.map(|d| d as i32)) - IVec3::ONE;
@@ -827,6 +843,10 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, inv: &DAffine3, bounds: &Co
             let across = row_start + inv.matrix3.y_axis * y;
             let column = at + nx * (j - lo.y) as usize;
             for (a, b) in runs_outside(k_lo, k_hi, [gap, deep]) {
+                // The run's values go to `runs` as they come (the cut-off where the patch keeps
+                // it), then are cut back to its last value below the cut-off.
+                let start = runs.values.len();
+                let (mut first, mut last) = (i32::MAX, i32::MIN);
                 let mut k = a;
                 while k <= b {
                     let n = ((b - k + 1) as usize).min(LANES);
@@ -837,19 +857,30 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, inv: &DAffine3, bounds: &Co
                         (lanes.x[l], lanes.y[l], lanes.z[l]) = (origin.x, origin.y, origin.z);
                     }
                     burr.sdf_lanes(&lanes, n, step, &mut out);
-                    for (l, d) in out[..n].iter().enumerate() {
+                    for (l, d) in out[..n].iter_mut().enumerate() {
                         if *d + moved <= deep_held || !(*d < cutoff32) {
+                            *d = cutoff32;
                             continue;
                         }
                         let row = (j - lo.y) as usize + ny * (k + l as i32 - lo.z) as usize;
                         patch.values[column + plane * (k + l as i32 - lo.z) as usize] = *d;
+                        first = first.min(k + l as i32);
+                        last = k + l as i32;
                         let span = &mut patch.spans[2 * row..2 * row + 2];
                         if span[0] == span[1] {
                             span[0] = at as u32;
                         }
                         span[1] = at as u32 + 1;
                     }
+                    runs.values.extend_from_slice(&out[..n]);
                     k += n as i32;
+                }
+                if first <= last {
+                    runs.values.truncate(start + (last - a + 1) as usize);
+                    let value_at = (start + (first - a) as usize) as u32;
+                    runs.runs.extend([column as u32, (first - lo.z) as u32, (last - lo.z + 1) as u32, value_at]);
+                } else {
+                    runs.values.truncate(start);
                 }
             }
         }
