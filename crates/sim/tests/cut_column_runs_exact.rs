@@ -3,6 +3,7 @@
 //! values: every burr family on haptic-tick paths at tilts from vertical to past 45°, through
 //! three nested tissues, measured and not; each tick the same changes (as sets, old and new
 //! values) and the same removed volume (to the rounding of another order), and at the end the same grids bit for bit.
+//! A sweep that builds the runs alone (`Sweep::set_runs_only`, a cutter's) builds the same runs.
 mod common;
 
 use dentsim_sim::burr::Shape;
@@ -21,6 +22,7 @@ fn change_set(log: &[VoxelChange]) -> Vec<(i32, i32, i32, u32)> {
 fn column_runs_change_what_row_spans_change() {
     let mut unit = common::unit_random(0x3c6e_f372_fe94_f82b);
     let band = 3.0 * common::VOXEL;
+    let cutoff = (band + 1.5 * common::VOXEL) as f32;
     let (mut run_ticks, mut changed) = (0usize, 0u64);
     for shape in Shape::ALL {
         for (case, measure) in [Measure::Skip, Measure::Volume].into_iter().enumerate() {
@@ -33,9 +35,12 @@ fn column_runs_change_what_row_spans_change() {
                 path.iter_mut().for_each(|p| *p = DAffine3 { matrix3: rotation.matrix3, translation: turn * p.translation });
             }
             let (mut by_spans, mut by_runs) = (common::nested_balls_model(), common::nested_balls_model());
-            let mut sweep = Sweep::default();
-            sweep.set_unmeasured(true);
-            sweep.set_columns(true);
+            let (mut sweep, mut runs_only) = (Sweep::default(), Sweep::default());
+            for s in [&mut sweep, &mut runs_only] {
+                s.set_unmeasured(true);
+                s.set_columns(true);
+            }
+            runs_only.set_runs_only(true);
             let (mut spans_log, mut runs_log, mut new_values) = (Vec::new(), Vec::new(), Vec::new());
             let mut done: Option<Done> = None;
             for (tick, poses) in path.windows(2).enumerate() {
@@ -44,6 +49,17 @@ fn column_runs_change_what_row_spans_change() {
                 common::build_marked(&mut sweep, &burr, (pose, next), band, done, &by_spans);
                 assert!(sweep.built_in_columns() || sweep.column_runs().is_empty(), "{shape:?} tick {tick}: runs from rows");
                 run_ticks += usize::from(!sweep.column_runs().is_empty());
+                // Built for the runs alone: the same runs and values, the patch left at the cut-off.
+                common::build_marked(&mut runs_only, &burr, (pose, next), band, done, &by_spans);
+                let (a, b) = (sweep.column_runs(), runs_only.column_runs());
+                assert_eq!(a.runs, b.runs, "{shape:?} tick {tick}: runs");
+                assert!(a.runs.chunks_exact(4).all(|r| {
+                    let (x, y) = (&a.values[r[3] as usize..][..(r[2] - r[1]) as usize], &b.values[r[3] as usize..][..(r[2] - r[1]) as usize]);
+                    x.iter().zip(y).all(|(p, q)| p.to_bits() == q.to_bits())
+                }), "{shape:?} tick {tick}: run values");
+                if runs_only.built_in_columns() {
+                    assert!(runs_only.patch.values.iter().all(|v| *v == cutoff) && runs_only.patch.spans.iter().all(|s| *s == 0), "{shape:?} tick {tick}: patch written");
+                }
                 for t in 0..3 {
                     spans_log.clear();
                     runs_log.clear();

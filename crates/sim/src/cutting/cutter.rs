@@ -196,6 +196,8 @@ impl Cutter {
         // The haptic tick's: a near-vertical head's band in columns along its axis (tests pin
         // the grids it leaves to the rows').
         self.sweep.set_columns(unmeasured);
+        // Which subtracts along the runs alone (cut_column_runs_exact pins them to the patch's).
+        self.sweep.set_runs_only(unmeasured);
         self.sweep.build_in(burr, from, to, h, band, done, |lo, dims, blocks| {
             grids.iter().try_for_each(|t| t.grid.mark_material_blocks(lo, dims, blocks).map_err(Into::into))
         })?;
