@@ -11,6 +11,7 @@
 // read per voxel within the tool's band (plus one voxel when measured); voxels farther outside
 // the tool are not read.
 #include <limits>
+#include <type_traits>
 
 #include "impl.h"
 
@@ -34,8 +35,8 @@ struct Box {
 template <bool unmeasured>
 CutStats subtract_as(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
                      std::array<uint32_t, 3> dims, rust::Slice<const float> tool,
-                     rust::Slice<const uint32_t> spans, float offset, bool logged,
-                     bool measure) {
+                     rust::Slice<const uint32_t> spans, rust::Slice<const uint32_t> runs,
+                     rust::Slice<const float> run_values, float offset, bool logged, bool measure) {
   const bool measured = !unmeasured && measure;
   const size_t expected = size_t(dims[0]) * dims[1] * dims[2];
   if (tool.size() != expected)
@@ -51,6 +52,15 @@ CutStats subtract_as(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   for (size_t r = 0; sp && r < rows; ++r)
     if (sp[2 * r] > sp[2 * r + 1] || sp[2 * r + 1] > dims[0])
       throw std::invalid_argument("tool patch row span " + std::to_string(r) + " is not within its row");
+  const size_t columns = size_t(dims[0]) * dims[1];
+  if (runs.size() % 4 != 0)
+    throw std::invalid_argument("tool patch column runs are not (column, start, end, value) quadruples");
+  const uint32_t* rp = runs.empty() ? nullptr : runs.data();
+  for (size_t r = 0; r < runs.size(); r += 4)
+    if (rp[r] >= columns || rp[r + 1] > rp[r + 2] || rp[r + 2] > dims[2] ||
+        size_t(rp[r + 3]) + (rp[r + 2] - rp[r + 1]) > run_values.size())
+      throw std::invalid_argument("tool patch column run " + std::to_string(r / 4) +
+                                  " is not within its column or the runs' values");
   if (!std::isfinite(offset)) throw std::invalid_argument("tool offset is not finite");
   auto& grid = *impl.grid;
   const float* tp = tool.data();  // rust::Slice indexing calls out of line per element
@@ -77,11 +87,12 @@ CutStats subtract_as(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
   auto floor_to_leaf = [](int v) { return v & ~(L - 1); };
   const int hi[3] = {index_min[0] + int(dims[0]) - 1, index_min[1] + int(dims[1]) - 1,
                      index_min[2] + int(dims[2]) - 1};
-  // Pass 1, row by row within each row's span: voxels the tool reaches (within the band plus
-  // one voxel) have their old value kept in `before` and are raised where the tool is deeper.
-  // Each leaf block is probed once, when a span first reaches it; a row segment is then read
-  // through a pointer stepping along x in the leaf's buffer (z is its fastest axis), or standing
-  // on the tile value of a block without a leaf. An outside tile cannot change: its voxels just
+  // Pass 1, row by row within each row's span (or, given column runs, run by run along z):
+  // voxels the tool reaches (within the band plus one voxel) have their old value kept in
+  // `before` and are raised where the tool is deeper. Each leaf block is probed once, when a span
+  // first reaches it; a row segment is then read through a pointer stepping along x in the leaf's
+  // buffer (z is its fastest axis; a column's steps by one), or standing on the tile value of a
+  // block without a leaf. An outside tile cannot change: its voxels just
   // take the tile value in `before`, for pass 2 (measured cuts only).
   // At most every voxel changes: the buffers grow once to the largest patch and are written
   // through pointers (push_back built each entry on the stack and stalled reloading it).
@@ -109,71 +120,100 @@ CutStats subtract_as(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
       tiles[b] = leaves[b] ? 0.f : acc.getValue(origin);
     }
   };
-  for (int k = 0; k < int(dims[2]); ++k)
-    for (int j = 0; j < int(dims[1]); ++j) {
-      const size_t r = size_t(j) + size_t(dims[1]) * size_t(k);
-      const int s0 = sp ? int(sp[2 * r]) : 0, s1 = sp ? int(sp[2 * r + 1]) : int(dims[0]);
-      const int y = index_min[1] + j, z = index_min[2] + k;
-      const size_t row_blocks = size_t(nb_x) * (size_t((y - fy) / L) + size_t(nb_y) * size_t((z - fz) / L));
-      const int yz = ((y & (L - 1)) << LOG2) | (z & (L - 1));
-      for (int xs = s0; xs < s1;) {
-        const int x = index_min[0] + xs;
-        const int xe = std::min(s1, xs + (L - (x & (L - 1))));  // end of this leaf block's part
-        const size_t b = row_blocks + size_t((x - fx) / L);
-        probe(b, x, y, z);
-        Leaf* leaf = leaves[b];
-        const float tile = tiles[b];
-        const size_t row = box.index(xs, j, k);
-        const int n = xe - xs;
-        const float* t_row = tp + row;
-        float* old_row = old_values + row;
-        float* weight_row = weights + row;
-        xs = xe;
-        if (!leaf && !(tile < bg)) {
-          if (measured)
-            for (int i = 0; i < n; ++i) old_row[i] = tile;
-          continue;
-        }
-        const float* src = leaf ? leaf->buffer().data() + (((x & (L - 1)) << 2 * LOG2) | yz) : &tile;
-        ptrdiff_t stride = leaf ? L * L : 0;
-        for (int i = 0; i < n; ++i) {
-          const float t = t_row[i] + offset;
-          if (!(t < read_limit)) continue;  // unread; pass 2 knows it from the tool
-          const float old = src[i * stride];
-          if (measured) old_row[i] = old;
-          const float now = -t < bg ? -t : bg;
-          const bool cuts = (t < bg) & (now > old);
-          if (measured) weight_row[i] = kernels.curvature_weight(cuts ? now : old);
-          if (!cuts) continue;
-          if (!leaf) {  // an inside tile becomes a leaf
-            leaf = leaves[b] = acc.touchLeaf(Coord(x & ~(L - 1), y & ~(L - 1), z & ~(L - 1)));
-            src = leaf->buffer().data() + (((x & (L - 1)) << 2 * LOG2) | yz);
-            stride = L * L;
-          }
-          const openvdb::Index at = openvdb::Index((((x + i) & (L - 1)) << 2 * LOG2) | yz);
-          if (now < bg) {
-            leaf->setValueOn(at, now);
-          } else {
-            leaf->setValueOff(at, bg);
-          }
-          ChangedVoxel& cv = changed[n_changed++];
-          cv.m = uint32_t(row + i);
-          cv.i = uint16_t(xs - n + i);
-          cv.j = uint16_t(j);
-          cv.k = uint16_t(k);
-          cv.old = old;
-          cv.now = now;
-          if (measured) stats.removed_volume += kernels.inside_fraction(old) - kernels.inside_fraction(now);
-          if (logged) {
-            VoxelChange& lc = log[impl.log_count++];
-            lc.i = x + i;
-            lc.j = y;
-            lc.k = z;
-            lc.value = old;
-          }
-        }
+  // One segment of a row (along x) or of a column (along z, `along_z`) from patch voxel
+  // (i, j, k), `n` voxels long within leaf block `b`. Rows step along x in the patch (1) and the
+  // leaf (L²); columns along z, the leaf's fastest axis (1), and the patch's slowest (nx·ny), so
+  // a column reads its tool values from the runs' own copy (`t_run`, z fastest) instead.
+  const size_t plane = size_t(dims[0]) * dims[1];
+  auto segment = [&](auto along_z, int i, int j, int k, int n, size_t b, const float* t_run) {
+    constexpr bool Z = decltype(along_z)::value;
+    const int x = index_min[0] + i, y = index_min[1] + j, z = index_min[2] + k;
+    probe(b, x, y, z);
+    Leaf* leaf = leaves[b];
+    const float tile = tiles[b];
+    const size_t row = box.index(i, j, k);
+    const size_t t_step = Z ? plane : 1;  // the patch's step (old values, weights)
+    const float* t_row = Z ? t_run : tp + row;
+    float* old_row = old_values + row;
+    float* weight_row = weights + row;
+    if (!leaf && !(tile < bg)) {
+      if (measured)
+        for (int s = 0; s < n; ++s) old_row[s * t_step] = tile;
+      return;
+    }
+    const int first = ((x & (L - 1)) << 2 * LOG2) | ((y & (L - 1)) << LOG2) | (z & (L - 1));
+    const ptrdiff_t leaf_step = Z ? 1 : L * L;
+    const float* src = leaf ? leaf->buffer().data() + first : &tile;
+    ptrdiff_t stride = leaf ? leaf_step : 0;
+    for (int s = 0; s < n; ++s) {
+      const float t = t_row[s] + offset;
+      if (!(t < read_limit)) continue;  // unread; pass 2 knows it from the tool
+      const float old = src[s * stride];
+      if (measured) old_row[s * t_step] = old;
+      const float now = -t < bg ? -t : bg;
+      const bool cuts = (t < bg) & (now > old);
+      if (measured) weight_row[s * t_step] = kernels.curvature_weight(cuts ? now : old);
+      if (!cuts) continue;
+      if (!leaf) {  // an inside tile becomes a leaf
+        leaf = leaves[b] = acc.touchLeaf(Coord(x & ~(L - 1), y & ~(L - 1), z & ~(L - 1)));
+        src = leaf->buffer().data() + first;
+        stride = leaf_step;
+      }
+      const openvdb::Index at = openvdb::Index(first + s * leaf_step);
+      if (now < bg) {
+        leaf->setValueOn(at, now);
+      } else {
+        leaf->setValueOff(at, bg);
+      }
+      ChangedVoxel& cv = changed[n_changed++];
+      cv.m = uint32_t(row + s * t_step);
+      cv.i = uint16_t(Z ? i : i + s);
+      cv.j = uint16_t(j);
+      cv.k = uint16_t(Z ? k + s : k);
+      cv.old = old;
+      cv.now = now;
+      if (measured) stats.removed_volume += kernels.inside_fraction(old) - kernels.inside_fraction(now);
+      if (logged) {
+        VoxelChange& lc = log[impl.log_count++];
+        lc.i = Z ? x : x + s;
+        lc.j = y;
+        lc.k = Z ? z + s : z;
+        lc.value = old;
       }
     }
+  };
+  if (runs.empty()) {
+    for (int k = 0; k < int(dims[2]); ++k)
+      for (int j = 0; j < int(dims[1]); ++j) {
+        const size_t r = size_t(j) + size_t(dims[1]) * size_t(k);
+        const int s0 = sp ? int(sp[2 * r]) : 0, s1 = sp ? int(sp[2 * r + 1]) : int(dims[0]);
+        const int y = index_min[1] + j, z = index_min[2] + k;
+        const size_t row_blocks = size_t(nb_x) * (size_t((y - fy) / L) + size_t(nb_y) * size_t((z - fz) / L));
+        for (int xs = s0; xs < s1;) {
+          const int x = index_min[0] + xs;
+          const int xe = std::min(s1, xs + (L - (x & (L - 1))));  // end of this leaf block's part
+          segment(std::false_type{}, xs, j, k, xe - xs, row_blocks + size_t((x - fx) / L), nullptr);
+          xs = xe;
+        }
+      }
+  } else {
+    // Column runs (a head evaluated in columns, see `Sweep::column_runs`): the same voxels
+    // below the band, read along the leaves' fastest axis.
+    const float* rv = run_values.data();
+    for (size_t r = 0; r < runs.size(); r += 4) {
+      const int i = int(rp[r] % dims[0]), j = int(rp[r] / dims[0]);
+      const int x = index_min[0] + i, y = index_min[1] + j;
+      const size_t column_blocks = size_t((x - fx) / L) + size_t(nb_x) * size_t((y - fy) / L);
+      const int k0 = int(rp[r + 1]);
+      const float* t_run = rv + rp[r + 3];
+      for (int ks = k0, k1 = int(rp[r + 2]); ks < k1;) {
+        const int z = index_min[2] + ks;
+        const int ke = std::min(k1, ks + (L - (z & (L - 1))));
+        segment(std::true_type{}, i, j, ks, ke - ks, column_blocks + size_t(nb_x) * nb_y * size_t((z - fz) / L), t_run + (ks - k0));
+        ks = ke;
+      }
+    }
+  }
   stats.changed_voxels = n_changed;
   if (n_changed == 0 || !measured) return stats;
   // Pass 2, the curvature term: sum over voxels v of W(old_v) Lap(old)_v - W(new_v) Lap(new)_v,
@@ -233,20 +273,22 @@ CutStats subtract_as(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
 
 CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
                        std::array<uint32_t, 3> dims, rust::Slice<const float> tool,
-                       rust::Slice<const uint32_t> spans, float offset, bool logged, bool measured) {
-  return measured ? subtract_as<false>(impl, index_min, dims, tool, spans, offset, logged, true)
-                  : subtract_as<true>(impl, index_min, dims, tool, spans, offset, logged, false);
+                       rust::Slice<const uint32_t> spans, rust::Slice<const uint32_t> runs,
+                       rust::Slice<const float> run_values, float offset, bool logged, bool measured) {
+  return measured ? subtract_as<false>(impl, index_min, dims, tool, spans, runs, run_values, offset, logged, true)
+                  : subtract_as<true>(impl, index_min, dims, tool, spans, runs, run_values, offset, logged, false);
 }
 
 CutStats LevelSet::subtract_dense(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
                                   rust::Slice<const float> tool, rust::Slice<const uint32_t> spans) {
-  return subtract_core(*impl, index_min, dims, tool, spans, 0.f, false, true);
+  return subtract_core(*impl, index_min, dims, tool, spans, {}, {}, 0.f, false, true);
 }
 
 CutStats LevelSet::subtract_logged(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
                                    rust::Slice<const float> tool, rust::Slice<const uint32_t> spans,
+                                   rust::Slice<const uint32_t> runs, rust::Slice<const float> run_values,
                                    float offset, bool measured) {
-  return subtract_core(*impl, index_min, dims, tool, spans, offset, true, measured);
+  return subtract_core(*impl, index_min, dims, tool, spans, runs, run_values, offset, true, measured);
 }
 
 void LevelSet::reserve_cut(std::array<uint32_t, 3> dims) {

@@ -96,7 +96,8 @@ struct VolumeKernels {
 
 CutStats subtract_core(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
                        std::array<uint32_t, 3> dims, rust::Slice<const float> tool,
-                       rust::Slice<const uint32_t> spans, float offset, bool logged, bool measured);
+                       rust::Slice<const uint32_t> spans, rust::Slice<const uint32_t> runs,
+                       rust::Slice<const float> run_values, float offset, bool logged, bool measured);
 
 // Trilinear value and gradient (world units) at an index-space point.
 template <typename Accessor>

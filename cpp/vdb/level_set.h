@@ -80,6 +80,7 @@ public:
   // Cutting with an undo log, rate limiting, journal replay, region reads (added for issue 4).
   CutStats subtract_logged(std::array<int32_t, 3> index_min, std::array<uint32_t, 3> dims,
                            rust::Slice<const float> tool, rust::Slice<const uint32_t> spans,
+                           rust::Slice<const uint32_t> runs, rust::Slice<const float> run_values,
                            float offset, bool measured);
   // The voxels the last subtract_logged changed, with their old values (valid until the next cut).
   rust::Slice<const VoxelChange> last_changes() const;

@@ -1,6 +1,7 @@
 //! Splits the bench's cut ticks into sweep and per-tissue subtract (fastest of several runs), for
 //! profiling (`dentsim bench` is the reference). `BURR=spec` for another burr (default the round
-//! 1 mm); `SKIP=1` for unmeasured cuts, as a session's haptic ticks make.
+//! 1 mm); `SKIP=1` for unmeasured cuts, as a session's haptic ticks make (then swept as the
+//! haptic cutter sweeps: in columns where it can, subtracted along their runs).
 /// This thread's CPU time since `start` (µs): unlike the wall clock, not inflated while other
 /// work holds the cores.
 fn cpu_us(start: ThreadTime) -> f64 {
@@ -33,6 +34,10 @@ fn main() {
         let mut model = tooth.model.clone();
         model.voxelize_for_cutting().unwrap();
         let mut sweep = Sweep::default();
+        let skip = measure == Measure::Skip;
+        sweep.set_unmeasured(skip);
+        sweep.set_columns(skip);
+        sweep.set_runs_only(skip);
         let mut log = Vec::new();
         for i in 0..n {
             let done = (i > 0).then(|| match burr.ball_radius() {
@@ -52,7 +57,7 @@ fn main() {
             for (k, t) in model.tissues.iter_mut().enumerate() {
                 log.clear();
                 let s = ThreadTime::now();
-                let st = t.grid.subtract_logged(&sweep.patch, 0.0, measure, &mut log).unwrap();
+                let st = t.grid.subtract_logged_runs(&sweep.patch, sweep.column_runs(), 0.0, measure, &mut log).unwrap();
                 sub_t[k][i] = sub_t[k][i].min(cpu_us(s));
                 changed[k] += st.changed_voxels;
             }

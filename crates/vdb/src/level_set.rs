@@ -52,6 +52,29 @@ pub struct DensePatch {
     pub spans: Vec<u32>,
 }
 
+/// A [`DensePatch`]'s runs along z: outside them every value of the patch is at least the
+/// cut-off (as outside its spans), and each run's values are also kept z fastest, so that a
+/// subtract along the runs reads them contiguously ([`LevelSet::subtract_logged_runs`]).
+#[derive(Clone, Debug, Default)]
+pub struct ColumnRuns {
+    /// Per run: its column (`i + nx·j`), first `k`, end `k` (exclusive), and where its first
+    /// value sits in `values`; flattened.
+    pub runs: Vec<u32>,
+    /// The runs' values, each run's z fastest: the patch's values bit for bit.
+    pub values: Vec<f32>,
+}
+
+impl ColumnRuns {
+    pub fn is_empty(&self) -> bool {
+        self.runs.is_empty()
+    }
+
+    pub fn clear(&mut self) {
+        self.runs.clear();
+        self.values.clear();
+    }
+}
+
 /// A scalar volume on a regular grid: value `n = i + nx * (j + ny * k)` sits at
 /// `index_to_world * (i, j, k, 1)` (row-major 4×4, mm).
 #[derive(Clone, Debug)]
@@ -325,10 +348,18 @@ impl LevelSet {
     /// reused: no allocation once it is large enough). [`Measure::Skip`] leaves the removed volume
     /// at 0: its curvature term costs as much again as the cut.
     pub fn subtract_logged(&mut self, patch: &DensePatch, offset: f32, measure: Measure, log: &mut Vec<VoxelChange>) -> Result<CutStats> {
+        self.subtract_logged_runs(patch, &ColumnRuns::default(), offset, measure, log)
+    }
+
+    /// [`subtract_logged`](Self::subtract_logged) along a patch's [`ColumnRuns`] instead of its
+    /// row spans: the same voxels to the same values, read along z (the leaves' fastest axis) from
+    /// the runs' own copy of the values, so neither side is read with a stride; logged in the
+    /// runs' order. Empty runs: the spans.
+    pub fn subtract_logged_runs(&mut self, patch: &DensePatch, runs: &ColumnRuns, offset: f32, measure: Measure, log: &mut Vec<VoxelChange>) -> Result<CutStats> {
         let measured = measure == Measure::Volume;
         let s = self
             .edit()
-            .subtract_logged(patch.index_min.to_array(), patch.dims, &patch.values, &patch.spans, offset, measured)
+            .subtract_logged(patch.index_min.to_array(), patch.dims, &patch.values, &patch.spans, &runs.runs, &runs.values, offset, measured)
             .map_err(openvdb("subtract tool patch"))?;
         // Copied in one go: a push per voxel across the bridge cost a tenth of the cut.
         log.extend_from_slice(self.inner.last_changes());

@@ -14,7 +14,7 @@ mod sys;
 
 pub use error::{Error, Result};
 pub use file::{check_layout, read_bytes, read_file, read_file_with, read_unguarded, write_file, FileGrid, ReadLimits};
-pub use level_set::{block_counts, CutStats, DensePatch, DenseVolume, IndexBox, LevelSet, Measure, MetaValue, Reader, VoxelChange};
+pub use level_set::{block_counts, ColumnRuns, CutStats, DensePatch, DenseVolume, IndexBox, LevelSet, Measure, MetaValue, Reader, VoxelChange};
 pub use mesh::TriMesh;
 
 /// Voxels per edge of an OpenVDB leaf node (the tree's `LeafNode<float, 3>`).

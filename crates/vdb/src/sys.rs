@@ -103,6 +103,8 @@ pub(crate) mod ffi {
             dims: [u32; 3],
             tool: &[f32],
             spans: &[u32],
+            runs: &[u32],
+            run_values: &[f32],
             offset: f32,
             measured: bool,
         ) -> Result<CutStats>;

@@ -196,6 +196,8 @@ impl Cutter {
         // The haptic tick's: a near-vertical head's band in columns along its axis (tests pin
         // the grids it leaves to the rows').
         self.sweep.set_columns(unmeasured);
+        // Which subtracts along the runs alone (cut_column_runs_exact pins them to the patch's).
+        self.sweep.set_runs_only(unmeasured);
         self.sweep.build_in(burr, from, to, h, band, done, |lo, dims, blocks| {
             grids.iter().try_for_each(|t| t.grid.mark_material_blocks(lo, dims, blocks).map_err(Into::into))
         })?;
@@ -258,7 +260,7 @@ impl Cutter {
             self.log.reserve(self.sweep.patch.values.len());
             let measure = if budget.is_some() { Measure::Volume } else { self.measure };
             self.report.measured &= measure == Measure::Volume;
-            let stats = tissue.grid.subtract_logged(&self.sweep.patch, offset, measure, &mut self.log)?;
+            let stats = tissue.grid.subtract_logged_runs(&self.sweep.patch, self.sweep.column_runs(), offset, measure, &mut self.log)?;
             if let Some(b) = budget {
                 self.bank.spend(t, stats.removed_mm3, b);
             }

@@ -16,7 +16,7 @@
 //! stroke continuing the last cannot change (see `Behind` and [`Burr::inner_capsule`]). With one
 //! pose to evaluate, rows are bounded by the head's slabs ([`Burr::axis_frustums`]) and written by a
 //! fast path that gives the general loop's values bit for bit (a test pins the two together).
-use dentsim_vdb::{block_counts, DensePatch, LEAF_DIM};
+use dentsim_vdb::{block_counts, ColumnRuns, DensePatch, LEAF_DIM};
 use glam::{DAffine3, DMat3, DQuat, DVec3, IVec3};
 
 use crate::burr::Burr;
@@ -99,6 +99,12 @@ pub struct Sweep {
     columns: bool,
     /// Whether the last build was (see [`Sweep::built_in_columns`]).
     in_columns: bool,
+    /// A build in columns writes only its runs, not the patch (see [`Sweep::set_runs_only`]).
+    runs_only: bool,
+    /// With the last build in columns, its column runs (see [`Sweep::column_runs`]).
+    column_runs: ColumnRuns,
+    /// Per k of the box, the tool frame's z axis times the voxel's z (see `fill_columns`).
+    z_terms: Vec<DVec3>,
 }
 
 /// One row run's distances for a non-round head (see [`Sweep::build_in`]), voxel by voxel.
@@ -146,6 +152,11 @@ impl Sweep {
         self.material.reserve(blocks.saturating_sub(self.material.len()));
         self.material_rows.reserve(blocks.saturating_sub(self.material_rows.len()));
         self.material_columns.reserve(blocks.saturating_sub(self.material_columns.len()));
+        // At most three runs a column (see `runs_outside`), four numbers each, and a value per voxel.
+        let runs = &mut self.column_runs;
+        runs.runs.reserve((12 * side as usize * side as usize).saturating_sub(runs.runs.len()));
+        runs.values.reserve(total.saturating_sub(runs.values.len()));
+        self.z_terms.reserve((side as usize).saturating_sub(self.z_terms.len()));
         self.rows.reserve(side as usize);
         // The sub-poses of a translation that long (rotation adds more; those still grow once).
         let poses = (travel_mm.max(0.0) / (2.0 * GAP_VOXELS * voxel)).ceil().min(MAX_SUBSTEPS as f64) as usize + 2;
@@ -176,14 +187,30 @@ impl Sweep {
     /// is the one its row along x gives (the row's origin in f64, then the f32 step), so every
     /// voxel evaluated holds the row path's value bit for bit; the bounds are the same sets, taken
     /// along z (to a voxel at their edges, which the bounds' own arguments cover: such voxels
-    /// change no grid). The patch keeps its layout (x fastest) and its spans.
+    /// change no grid). The patch keeps its layout (x fastest) and its spans (unless
+    /// [`Self::set_runs_only`]).
     pub fn set_columns(&mut self, columns: bool) {
         self.columns = columns;
+    }
+
+    /// Whether a build in columns writes its values to its runs only (see [`Self::column_runs`]),
+    /// leaving the patch at the cut-off with empty spans: for a cutter that subtracts along the
+    /// runs and reads nothing else of the patch. Each value written was a scattered store into the
+    /// patch (x fastest) and its row's span; the runs' copy is contiguous.
+    pub fn set_runs_only(&mut self, runs_only: bool) {
+        self.runs_only = runs_only;
     }
 
     /// Whether the last build evaluated its head in columns along z (see [`Self::set_columns`]).
     pub fn built_in_columns(&self) -> bool {
         self.in_columns
+    }
+
+    /// The last build's runs along z, as `LevelSet::subtract_logged_runs` takes them: each from a
+    /// run's first value below the cut-off to its last, with its values; every value outside them
+    /// is the cut-off. Empty unless built in columns.
+    pub fn column_runs(&self) -> &ColumnRuns {
+        &self.column_runs
     }
 
     /// Voxels along each side of the box a cut of `travel_mm` works in (what [`Self::reserve`]
@@ -248,6 +275,7 @@ impl Sweep {
         let n = n as usize;
         self.substeps = n;
         self.in_columns = false;
+        self.column_runs.clear();
         self.inverse.clear();
         self.centres.clear();
         self.axes.clear();
@@ -446,7 +474,7 @@ impl Sweep {
                     behind: behind.map(|b| Behind { origin: swap_xz(b.origin), across: swap_xz(b.across), axis: swap_xz(b.axis), height: b.height }),
                     inner: inner_axis.map(|(a, b, r)| capsule_across((swap_xz(a), swap_xz(b), r))),
                 };
-                fill_columns(burr, patch, &self.inverse[1], &bounds, (voxel, band, cutoff, moves));
+                fill_columns(burr, patch, (&mut self.column_runs, &mut self.z_terms, self.runs_only), &self.inverse[1], &bounds, (voxel, band, cutoff, moves));
                 self.in_columns = true;
                 return Ok(());
             }
@@ -786,8 +814,10 @@ struct ColumnBounds<'a> {
 /// the head at `inv` (world to tool), started from a pose the grids hold that lies `moves` mm
 /// away. Each voxel's point is its row's (`origin(y, z) + (i − lo.x)·step`, the origin in f64 as
 /// `DAffine3::transform_point3` sums it) and its value the row path's; only values below the
-/// cut-off are written (the patch holds the cut-off elsewhere), each widening its row's span.
-fn fill_columns(burr: &Burr, patch: &mut DensePatch, inv: &DAffine3, bounds: &ColumnBounds, (voxel, band, cutoff, moves): (f64, f64, f64, f64)) {
+/// cut-off are written (the patch holds the cut-off elsewhere), each widening its row's span,
+/// and each run's part from its first such value to its last goes to `runs` with its values (see
+/// [`Sweep::column_runs`]); with `runs_only`, only there.
+fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only): (&mut ColumnRuns, &mut Vec<DVec3>, bool), inv: &DAffine3, bounds: &ColumnBounds, (voxel, band, cutoff, moves): (f64, f64, f64, f64)) {
     use crate::burr::profile::{Lanes, LANES};
     let (lo, [nx, ny, _]) = (patch.index_min, patch.dims.map(|d| d as usize));
     let hi = lo + IVec3::from_array(patch.dims.map(|d| d as i32)) - IVec3::ONE;
@@ -797,6 +827,9 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, inv: &DAffine3, bounds: &Co
     let (cutoff32, moved) = (cutoff as f32, moves as f32);
     let deep_held = (-band - f64::from(DONE_SLACK) - 1e-6) as f32;
     let plane = nx * ny;
+    // The origin's z term per k, once per build rather than per voxel (the same product).
+    z_terms.clear();
+    z_terms.extend((lo.z..=hi.z).map(|k| inv.matrix3.z_axis * (f64::from(k) * voxel)));
     let mut out = [0f32; LANES];
     for i in lo.x..=hi.x {
         let x = f64::from(i) * voxel;
@@ -827,18 +860,28 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, inv: &DAffine3, bounds: &Co
             let across = row_start + inv.matrix3.y_axis * y;
             let column = at + nx * (j - lo.y) as usize;
             for (a, b) in runs_outside(k_lo, k_hi, [gap, deep]) {
+                // The run's values go to `runs` as they come (the cut-off where the patch keeps
+                // it), then are cut back to its last value below the cut-off.
+                let start = runs.values.len();
+                let (mut first, mut last) = (i32::MAX, i32::MIN);
                 let mut k = a;
                 while k <= b {
                     let n = ((b - k + 1) as usize).min(LANES);
                     let mut lanes = Lanes { t: [at as f32; LANES], ..Default::default() };
-                    for l in 0..n {
-                        let z = f64::from(k + l as i32) * voxel;
-                        let origin = (across + inv.matrix3.z_axis * z + inv.translation).as_vec3();
+                    let terms = &z_terms[(k - lo.z) as usize..(k - lo.z) as usize + n];
+                    for (l, term) in terms.iter().enumerate() {
+                        let origin = (across + *term + inv.translation).as_vec3();
                         (lanes.x[l], lanes.y[l], lanes.z[l]) = (origin.x, origin.y, origin.z);
                     }
                     burr.sdf_lanes(&lanes, n, step, &mut out);
-                    for (l, d) in out[..n].iter().enumerate() {
+                    for (l, d) in out[..n].iter_mut().enumerate() {
                         if *d + moved <= deep_held || !(*d < cutoff32) {
+                            *d = cutoff32;
+                            continue;
+                        }
+                        first = first.min(k + l as i32);
+                        last = k + l as i32;
+                        if runs_only {
                             continue;
                         }
                         let row = (j - lo.y) as usize + ny * (k + l as i32 - lo.z) as usize;
@@ -849,7 +892,15 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, inv: &DAffine3, bounds: &Co
                         }
                         span[1] = at as u32 + 1;
                     }
+                    runs.values.extend_from_slice(&out[..n]);
                     k += n as i32;
+                }
+                if first <= last {
+                    runs.values.truncate(start + (last - a + 1) as usize);
+                    let value_at = (start + (first - a) as usize) as u32;
+                    runs.runs.extend([column as u32, (first - lo.z) as u32, (last - lo.z + 1) as u32, value_at]);
+                } else {
+                    runs.values.truncate(start);
                 }
             }
         }

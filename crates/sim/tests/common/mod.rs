@@ -130,3 +130,34 @@ pub fn haptic_tick_path(unit: &mut impl FnMut() -> f64) -> Vec<DAffine3> {
     }
     poses
 }
+
+/// Builds `sweep`'s patch for the stroke, marking the blocks where `model` has material (as a
+/// cutter does), at VOXEL.
+pub fn build_marked(sweep: &mut dentsim_sim::cutting::sweep::Sweep, burr: &Burr, stroke: (DAffine3, DAffine3), band: f64, done: Option<dentsim_sim::cutting::sweep::Done>, model: &TissueModel) {
+    let grids = &model.tissues;
+    sweep
+        .build_in(burr, stroke.0, stroke.1, VOXEL, band, done, |lo, dims, blocks| {
+            grids.iter().try_for_each(|t| t.grid.mark_material_blocks(lo, dims, blocks).map_err(Into::into))
+        })
+        .unwrap();
+}
+
+/// What a stroke of `burr` ending at `pose` leaves done: its ball, or its head there.
+pub fn done_at(burr: &Burr, pose: DAffine3) -> dentsim_sim::cutting::sweep::Done {
+    use dentsim_sim::cutting::sweep::{CutBall, CutHead, Done};
+    match burr.ball_radius() {
+        Some(r) => Done::Ball(CutBall { centre: pose.transform_point3(DVec3::new(0.0, 0.0, r)), radius: r }),
+        None => Done::Head(CutHead { to_tool: pose.inverse(), offset: 0.0 }),
+    }
+}
+
+/// Asserts two nested-balls models hold every tissue's grid bit for bit alike.
+pub fn assert_same_nested_balls(a: &TissueModel, b: &TissueModel, what: &str) {
+    for t in 0..3 {
+        let (x, y) = (nested_balls_dense(a, t), nested_balls_dense(b, t));
+        for (n, (p, q)) in x.iter().zip(&y).enumerate() {
+            assert_eq!(p.to_bits(), q.to_bits(), "{what} tissue {t} voxel {n}: {p} vs {q}");
+        }
+        assert_eq!(a.tissues[t].grid.content_hash(), b.tissues[t].grid.content_hash(), "{what} tissue {t}");
+    }
+}
