@@ -829,6 +829,16 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     let lesion_grey = |v: f64| (v - cal.peak(Label::Caries)).abs() < (v - cal.peak(Label::Pulp)).abs();
     // Canals thinner than the hard-tissue threshold resolves (below).
     let canal = thin_canals(&bx.g, &btooth, &bvals, &(0..bn).map(|l| open[l] && !behind_neck[l]).collect::<Vec<bool>>(), cal);
+    // (Only canals that reach a cavity the hard-tissue threshold found, the pulp chamber: a
+    // dark sheet of the blur's mix between roots close together joins none.)
+    let canal = {
+        let (id, sizes) = components(&bx.g, &(0..bn).map(|l| canal[l] || behind_neck[l]).collect::<Vec<bool>>());
+        let mut joins = vec![false; sizes.len()];
+        for l in (0..bn).filter(|&l| behind_neck[l]) {
+            joins[id[l] as usize] = true;
+        }
+        (0..bn).map(|l| canal[l] && joins[id[l] as usize]).collect::<Vec<bool>>()
+    };
     let mut candidates = behind_neck;
     for l in (0..bn).filter(|&l| canal[l]) {
         candidates[l] = true;
