@@ -89,21 +89,29 @@ fn a_reference_library_arm_cuts_the_phantom_and_gets_forces_back() {
             }
         }
     }
-    let faults = log.records.iter().any(|r| r.flags & FLAG_DEVICE_FAULT != 0);
+    // Faults while the arm was still sending (the link's close at the end faults the last ticks).
+    let fault = |r: &TickRecord| r.flags & FLAG_DEVICE_FAULT != 0;
+    let live = log.records.iter().rposition(|r| !fault(r)).map_or(0, |i| i + 1);
+    let faults = log.records[..live].iter().any(fault);
     let mut at = 0;
     for (i, a) in answers.iter().enumerate().filter(|(_, a)| **a != [0.0; 6]) {
         let found = pushed[at..].iter().position(|p| p == a);
         at += found.unwrap_or_else(|| panic!("answer {i} {a:?} is not a force the session rendered after answer {at}"));
     }
-    // Every force pushed for a pose that another pose followed reached the arm, unless a device
-    // fault's zero overtook it.
+    // None is lost for good: the I/O thread answers with the newest force pushed, so a force for
+    // an answered pose reached the arm, or one pushed right after it did (a tick that ran late,
+    // after the next pose was answered); a device fault's zero may overtake it, and the last
+    // answered pose's force may come after the arm's last pose.
+    let got = |f: &[f64; 6]| answers.contains(f);
+    if !faults {
+        for k in 0..answered.len().saturating_sub(1) {
+            let next = &answered[k + 1..(k + 3).min(answered.len())];
+            assert!(got(&answered[k]) || next.iter().any(got), "the force for answered pose {k} {:?} never reached the arm", answered[k]);
+        }
+    }
     let fz_max = |f: &[[f64; 6]]| f.iter().map(|f| f[2]).fold(0.0, f64::max);
     let (felt, sent) = (fz_max(&answers), fz_max(&answered));
-    if faults {
-        assert!(felt <= sent, "the arm felt {felt} N, more than the session rendered ({sent} N)");
-    } else {
-        assert_eq!(felt, sent, "the arm felt {felt} N of the {sent} N the session rendered");
-    }
+    assert!(felt <= sent, "the arm felt {felt} N, more than the session rendered ({sent} N)");
     // Pressing down on the top pushes back up (+z), unless the machine could not keep the tick's
     // deadlines and the watchdog ramped the force down (a loaded machine without SCHED_FIFO).
     let trips = summary["watchdog_trips"].as_u64().unwrap();
