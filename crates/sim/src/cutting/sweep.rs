@@ -860,8 +860,8 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only):
             let across = row_start + inv.matrix3.y_axis * y;
             let column = at + nx * (j - lo.y) as usize;
             for (a, b) in runs_outside(k_lo, k_hi, [gap, deep]) {
-                // The run's values go to `runs` as they come (the cut-off where the patch keeps
-                // it), then are cut back to its last value below the cut-off.
+                // The run's values go to `runs` from its first value below the cut-off (the
+                // cut-off where the patch keeps it), then are cut back to its last such value.
                 let start = runs.values.len();
                 let (mut first, mut last) = (i32::MAX, i32::MIN);
                 let mut k = a;
@@ -892,15 +892,15 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only):
                         }
                         span[1] = at as u32 + 1;
                     }
-                    runs.values.extend_from_slice(&out[..n]);
+                    // From the run's first value below the cut-off on.
+                    if first < k + n as i32 {
+                        runs.values.extend_from_slice(&out[(first - k).max(0) as usize..n]);
+                    }
                     k += n as i32;
                 }
                 if first <= last {
-                    runs.values.truncate(start + (last - a + 1) as usize);
-                    let value_at = (start + (first - a) as usize) as u32;
-                    runs.runs.extend([column as u32, (first - lo.z) as u32, (last - lo.z + 1) as u32, value_at]);
-                } else {
-                    runs.values.truncate(start);
+                    runs.values.truncate(start + (last - first + 1) as usize);
+                    runs.runs.extend([column as u32, (first - lo.z) as u32, (last - lo.z + 1) as u32, start as u32]);
                 }
             }
         }
