@@ -432,6 +432,9 @@ pub fn guidance_clearance(tooth: &BenchTooth, iterations: usize) -> Result<Bench
 /// interrupts), so a missed p99.9 reads as ours or the machine's. Its figures stand in the
 /// row's text; the peer columns stay empty, as a ratio of two medians of 1000 µs says nothing.
 pub fn deadline_row(name: &str, periods: &Timings, raise_priority: bool, goal: &str) -> Result<BenchRow> {
+    if periods.0.len() < 2 {
+        return Err(dentsim_sim::error::invalid(name, format!("{} tick periods logged, expected a running session's", periods.0.len())));
+    }
     let starts = idle_loop_starts_s(periods.0.len(), 1e-3, raise_priority)?;
     let floor = Timings(starts.windows(2).map(|w| (w[1] - w[0]) * 1e6).collect());
     let text = format!(

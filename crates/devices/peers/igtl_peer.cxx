@@ -4,7 +4,9 @@
 //   igtl_peer server PORT COUNT PERIOD_US X0 Y0 Z0 X1 Y1 Z1 [POSITION]
 //     Waits for one client, sends COUNT TRANSFORM (or POSITION) poses (device "Stylus") moving from P0 to P1,
 //     PERIOD_US apart, waits after each for the SENSOR answer (CRC checked by the library), prints
-//     "rt_us fx fy fz tx ty tz" per pose, then closes the connection.
+//     "rt_us fx fy fz tx ty tz" per pose, then closes the connection. The first pose waits for the
+//     client's session to start; the stream's clock starts at its answer, so a slow start does not
+//     leave the other poses overdue (sent back to back, the stream over before the session ran).
 //   igtl_peer echo HOST PORT
 //     Connects and answers every TRANSFORM at once with a SENSOR of six zeros (the same round
 //     trip through the reference library on both ends), until the server closes.
@@ -88,6 +90,7 @@ static int server(int argc, char** argv) {
       socket->Send(pose->GetPackPointer(), pose->GetPackSize());
     if (!next_message(socket, header, "SENSOR")) return fail("client closed");
     auto got = std::chrono::steady_clock::now();
+    if (i == 0) next = got + std::chrono::microseconds(period_us);
     sensor->SetMessageHeader(header);
     sensor->AllocatePack();
     socket->Receive(sensor->GetPackBodyPointer(), sensor->GetPackBodySize());
