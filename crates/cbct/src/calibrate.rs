@@ -60,6 +60,9 @@ fn one() -> f64 {
 /// Below this confidence, automatic calibration stops with an error instead of guessing.
 pub const MIN_CONFIDENCE: f64 = 0.5;
 
+/// A peak below the dentin whose grey fills less than this of whole neighbourhoods is no tissue.
+const MIN_BODY_MM3: f64 = 5.0;
+
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Threshold {
     pub below: String,
@@ -307,6 +310,9 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
         let what = format!("confidence {confidence:.2} is below {MIN_CONFIDENCE}: {}", evidence.join("; "));
         return Err(refusal(vol, &peaks_text, &what, Some((m, d, e))));
     }
+    // Read again from the peaks that are tissues: the outside's (below the dentin) must be bodies.
+    let found = bodies(&found, d, e, &grid);
+    let by_order = match_in_order(&h, lo, bw, &found);
     let agrees = by_order.as_ref().filter(|c| (c.peak(Label::Dentin) - d).abs() <= tol && (c.peak(Label::Enamel) - e).abs() <= tol);
     let mut cal = match agrees {
         Some(c) => c.clone(),
@@ -332,6 +338,25 @@ fn refusal(vol: &Volume, peaks: &str, why: &str, guess: Option<(f64, f64, f64)>)
              (the plugin: Thresholds)"
         ),
     )
+}
+
+/// The peaks that are tissues. Below the dentin (the outside's: air, soft tissue, bone) a
+/// tissue is a body: a peak whose grey fills no voxel's neighbourhood is the blur's mix at an
+/// edge or the storage's rounding (an 8-bit scan of a tooth in air shows such peaks where bone
+/// would be). The most frequent of them is the medium and stays.
+fn bodies(found: &[Peak], d: f64, e: f64, grid: &Coarse) -> Vec<Peak> {
+    let below = |p: &Peak| p.grey < d - 0.25 * (e - d);
+    let lower: Vec<Peak> = found.iter().copied().filter(below).collect();
+    let medium = lower.iter().map(|p| p.count).fold(f64::NEG_INFINITY, f64::max);
+    let body = |i: usize| {
+        let p = lower[i];
+        let lo = if i == 0 { f64::NEG_INFINITY } else { 0.5 * (lower[i - 1].grey + p.grey) };
+        let hi = lower.get(i + 1).map_or(0.5 * (p.grey + d), |q| 0.5 * (p.grey + q.grey));
+        p.count >= medium || grid.body_mm3(lo, hi) >= MIN_BODY_MM3
+    };
+    let kept: Vec<bool> = (0..lower.len()).map(body).collect();
+    let mut lower_kept = kept.into_iter();
+    found.iter().copied().filter(|p| !below(p) || lower_kept.next().unwrap_or(true)).collect()
 }
 
 /// A calibration through the dentin and enamel read by layering: grey = a·HU + b through their
@@ -436,6 +461,17 @@ impl Coarse {
             *v.select_nth_unstable_by(h, |a, b| a.total_cmp(b)).1 as f64
         };
         Some((median(&mut dd), median(&mut de)))
+    }
+
+    /// Volume (mm³) of the voxels with grey in `lo..hi` whose 6 neighbours' is too.
+    fn body_mm3(&self, lo: f64, hi: f64) -> f64 {
+        let [nx, ny, nz] = self.dims;
+        let within = |n: usize| (lo..hi).contains(&f64::from(self.values[n]));
+        let count = (0..self.values.len())
+            .into_par_iter()
+            .filter(|&n| within(n) && crate::volume::face_neighbours(n, [nx, ny, nz]).iter().all(|m| m.map_or(true, within)))
+            .count();
+        count as f64 * self.spacing.iter().product::<f64>()
     }
 
     /// The medium (grey at most `t1`) around the tooth: reached from the grid's border through
