@@ -100,6 +100,42 @@ fn a_peak_is_a_tissue_only_where_its_grey_fills_a_body() {
     assert!((body.peak(Label::BoneCortical) - 1730.0).abs() < 50.0, "{body:#?}");
 }
 
+/// The foreign jaw's greys (air −1000, soft tissue 40, bone 1100, dentin 1900, enamel 3000: an
+/// enamel–dentin contrast larger than typical HU's), with one-voxel rims at the greys the blur
+/// mixes between them (as foreign_tooth.py's jaw scan shows). The rims are no tissues, and
+/// leaving them out must not move the bodies to other tissues: matched by order without the
+/// rims, air read as soft tissue, soft tissue as cancellous bone.
+#[test]
+fn leaving_out_a_bump_moves_no_other_peak_to_another_tissue() {
+    let jaw = |x: f64, y: f64, z: f64| {
+        let (r, rho) = ((x * x + y * y + z * z).sqrt(), (x * x + y * y).sqrt());
+        Some(if z < -2.5 {
+            match rho {
+                _ if (2.0..2.25).contains(&rho) => 637.0,
+                _ if (2.25..2.5).contains(&rho) => 269.0,
+                _ => 1100.0,
+            }
+        } else if z < 0.5 {
+            40.0
+        } else {
+            match r {
+                _ if (5.0..5.25).contains(&r) => -361.0,
+                _ if (5.25..5.5).contains(&r) => -685.0,
+                _ => -1000.0,
+            }
+        })
+    };
+    let cal = calibrate(&layered_ball_in(3000.0, 1900.0, &jaw)).unwrap();
+    let peaks: Vec<f64> = cal.evidence.iter().filter_map(|e| e.strip_prefix("histogram peaks at ")).flat_map(|l| l.split(", ").filter_map(|g| g.parse().ok())).collect();
+    for rim in [-685.0, -361.0, 269.0, 637.0] {
+        assert!(peaks.iter().any(|g| (g - rim).abs() < 60.0), "the rim at {rim} makes a peak: {peaks:?}");
+    }
+    for (l, grey) in [(Label::Air, -1000.0), (Label::SoftTissue, 40.0), (Label::BoneCortical, 1100.0)] {
+        assert!(cal.measured.iter().any(|m| m == l.name()) && (cal.peak(l) - grey).abs() < 60.0, "{} read at {:.0}, true {grey}: {:?} {:?}", l.name(), cal.peak(l), cal.measured, cal.evidence);
+    }
+    assert!(!cal.measured.iter().any(|m| m == "bone_cancellous"), "a rim is no bone: {:?}", cal.measured);
+}
+
 #[test]
 fn a_bright_core_inside_a_darker_shell_is_refused_with_what_was_found() {
     // Peak order would call the core enamel and the shell dentin; enamel is no tooth's core.
