@@ -38,6 +38,7 @@ fn main() {
         }
         println!("{:.1}s", t.elapsed().as_secs_f64());
         if std::env::args().any(|a| a == "-v") {
+            println!("     measured {:?}; thresholds {}", cal.measured, cal.thresholds.iter().map(|t| format!("{}|{} {:.1}", t.below, t.above, t.value)).collect::<Vec<_>>().join(", "));
             for l in &cal.evidence {
                 println!("     {l}");
             }

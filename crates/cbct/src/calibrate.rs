@@ -11,9 +11,13 @@
 //!    where its voxels touch dentin's, the dentin lies deeper (farther from the medium). Reading
 //!    the tooth as "enamel" and wax, water or bone as "dentin" puts the "dentin" outside. The
 //!    score is (deeper − shallower contacts) / enamel surface; the best proposal wins.
-//! 3. The histogram-peak matching to all tissues (grey = a·HU + b through matched peaks) is kept
-//!    when it agrees with the winner; otherwise the line goes through the winner's dentin and
-//!    enamel, and the lower peaks are the outside tissues nearest their implied HU.
+//! 3. A peak below the dentin is an outside tissue (air, soft tissue, bone) only where its grey
+//!    fills a body of the scan (else it is an edge's mix or the storage's rounding; the medium
+//!    the scan was taken in always stays). Each such peak is the outside tissue nearest its HU
+//!    on the line through the winner's dentin and enamel, peak by peak, so leaving a bump out
+//!    moves no other peak to another tissue. The histogram-peak matching to all tissues (grey =
+//!    a·HU + b through matched peaks) is kept, for its line, only when it reads the dentin, the
+//!    enamel and every outside peak alike.
 //! 4. Confidence from the winner's score, its contacts and its lead over a proposal that reads
 //!    the tissues otherwise; below [`MIN_CONFIDENCE`], an error says what was found and how to
 //!    pass `--thresholds`.
@@ -59,6 +63,12 @@ fn one() -> f64 {
 
 /// Below this confidence, automatic calibration stops with an error instead of guessing.
 pub const MIN_CONFIDENCE: f64 = 0.5;
+
+/// The tissues around a tooth that make peaks below the dentin's.
+const OUTSIDE: [Label; 4] = [Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical];
+
+/// A peak below the dentin whose grey fills less than this of whole neighbourhoods is no tissue.
+const MIN_BODY_MM3: f64 = 5.0;
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Threshold {
@@ -307,11 +317,17 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
         let what = format!("confidence {confidence:.2} is below {MIN_CONFIDENCE}: {}", evidence.join("; "));
         return Err(refusal(vol, &peaks_text, &what, Some((m, d, e))));
     }
-    let agrees = by_order.as_ref().filter(|c| (c.peak(Label::Dentin) - d).abs() <= tol && (c.peak(Label::Enamel) - e).abs() <= tol);
-    let mut cal = match agrees {
-        Some(c) => c.clone(),
-        None => from_layering(&found, padding, d, e),
-    };
+    // The outside's peaks (below the dentin) are tissues only where they are bodies. Each is
+    // the tissue nearest its grey on the line through the dentin and enamel, peak by peak, so a
+    // bump left out moves no other peak to another tissue; the order's reading (which matches
+    // all peaks at once, and shifts them a tissue up when one goes) is taken only where it reads
+    // every outside peak as that does, for its line through more tissues.
+    let found = bodies(&found, d, e, &grid);
+    let layered = from_layering(&found, padding, d, e);
+    let by_order = match_in_order(&h, lo, bw, &found);
+    let outside_of = |c: &Calibration| -> Vec<(String, f64)> { OUTSIDE.iter().filter(|l| c.measured.iter().any(|m| m == l.name())).map(|l| (l.name().to_string(), c.peak(*l))).collect() };
+    let agrees = by_order.filter(|c| (c.peak(Label::Dentin) - d).abs() <= tol && (c.peak(Label::Enamel) - e).abs() <= tol && outside_of(c) == outside_of(&layered));
+    let mut cal = agrees.unwrap_or(layered);
     cal.confidence = confidence;
     cal.evidence = evidence;
     Ok(cal)
@@ -334,13 +350,34 @@ fn refusal(vol: &Volume, peaks: &str, why: &str, guess: Option<(f64, f64, f64)>)
     )
 }
 
+/// The peaks that are tissues. Below the dentin (the outside's: air, soft tissue, bone) a
+/// tissue is a body: its grey (between the neighbouring peaks') fills whole neighbourhoods over
+/// at least [`MIN_BODY_MM3`]; a peak that fills none is the blur's mix at an edge or the
+/// storage's rounding (an 8-bit scan of a tooth in air shows such peaks where bone would be).
+/// The medium the scan was taken in stays whatever its shape: the most frequent of them, and
+/// the lowest where its grey reaches the scan's border (air, or the wax or water a tooth lies in).
+fn bodies(found: &[Peak], d: f64, e: f64, grid: &Coarse) -> Vec<Peak> {
+    let below = |p: &Peak| p.grey < d - 0.25 * (e - d);
+    let lower: Vec<Peak> = found.iter().copied().filter(below).collect();
+    let medium = lower.iter().map(|p| p.count).fold(f64::NEG_INFINITY, f64::max);
+    let body = |i: usize| {
+        let p = lower[i];
+        let lo = if i == 0 { f64::NEG_INFINITY } else { 0.5 * (lower[i - 1].grey + p.grey) };
+        let hi = lower.get(i + 1).map_or(0.5 * (p.grey + d), |q| 0.5 * (p.grey + q.grey));
+        p.count >= medium || (i == 0 && grid.border_count(lo, hi) > 0) || grid.body_mm3(lo, hi) >= MIN_BODY_MM3
+    };
+    let kept: Vec<bool> = (0..lower.len()).map(body).collect();
+    let mut lower_kept = kept.into_iter();
+    found.iter().copied().filter(|p| !below(p) || lower_kept.next().unwrap_or(true)).collect()
+}
+
 /// A calibration through the dentin and enamel read by layering: grey = a·HU + b through their
 /// typical HU; every lower peak is the outside tissue (air, soft tissue, bone) nearest its
 /// implied HU (the most frequent peak where two land on one).
 fn from_layering(found: &[Peak], padding: Option<f64>, d: f64, e: f64) -> Calibration {
     let a = (e - d) / (Label::Enamel.typical_hu() - Label::Dentin.typical_hu());
     let b = d - a * Label::Dentin.typical_hu();
-    let outside = [Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical];
+    let outside = OUTSIDE;
     let mut taken: Vec<(Label, Peak)> = Vec::new();
     let lower = found.iter().copied().filter(|p| p.grey < d - 0.25 * (e - d)).chain(padding.filter(|_| found.iter().all(|p| p.grey >= d - 0.25 * (e - d))).map(|g| Peak { grey: g, count: 0.0 }));
     for p in lower {
@@ -436,6 +473,26 @@ impl Coarse {
             *v.select_nth_unstable_by(h, |a, b| a.total_cmp(b)).1 as f64
         };
         Some((median(&mut dd), median(&mut de)))
+    }
+
+    /// Volume (mm³) of the voxels with grey in `lo..hi` whose 6 neighbours' is too.
+    fn body_mm3(&self, lo: f64, hi: f64) -> f64 {
+        let [nx, ny, nz] = self.dims;
+        let within = |n: usize| (lo..hi).contains(&f64::from(self.values[n]));
+        let count = (0..self.values.len())
+            .into_par_iter()
+            .filter(|&n| within(n) && crate::volume::face_neighbours(n, [nx, ny, nz]).iter().all(|m| m.map_or(true, within)))
+            .count();
+        count as f64 * self.spacing.iter().product::<f64>()
+    }
+
+    /// Voxels on the grid's border with grey in `lo..hi`.
+    fn border_count(&self, lo: f64, hi: f64) -> usize {
+        let [nx, ny, nz] = self.dims;
+        (0..self.values.len())
+            .into_par_iter()
+            .filter(|&n| (lo..hi).contains(&f64::from(self.values[n])) && crate::volume::face_neighbours(n, [nx, ny, nz]).iter().any(Option::is_none))
+            .count()
     }
 
     /// The medium (grey at most `t1`) around the tooth: reached from the grid's border through

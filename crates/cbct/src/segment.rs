@@ -467,6 +467,42 @@ fn median(v: &mut [f32]) -> f32 {
     *v.select_nth_unstable_by(m, |a, b| a.total_cmp(b)).1
 }
 
+/// How deep (voxels) the outside claims the tooth's darker rim where it touches it: the blur's
+/// mix at the outer surface, and the last voxels of a canal at an apex open in the scan.
+const CANAL_RIM_VOXELS: usize = 2;
+
+/// Voxels of a thin canal in `tooth` (its hard tissue at the calibration's threshold): darker
+/// than the tooth's deep dentin by more than its noise (3 σ, σ from the median absolute
+/// deviation; at least a tenth of the way to the pulp's grey), where the outside (`outside`, at
+/// the hard-tissue threshold) does not reach them within CANAL_RIM_VOXELS.
+///
+/// Why: the hard-tissue threshold lies where the tooth meets bone or the medium. A canal
+/// narrower than the blur, its grey lifted toward the dentin's, reads as hard tissue there, and
+/// a threshold high enough to find it opens a thin apex (the canal joins the outside and is no
+/// cavity). So the tooth's outline comes from the one threshold and its canals from the other,
+/// the tooth's own dentin and noise, without depending on where bone's grey lands.
+fn thin_canals(g: &Grid, tooth: &[bool], vals: &[f32], outside: &[bool], cal: &Calibration) -> Vec<bool> {
+    let n = g.n();
+    let (hard_cut, enamel_cut) = (cal.mid(Label::BoneCortical, Label::Dentin), cal.mid(Label::Dentin, Label::Enamel));
+    let deep = morph(g, &morph(g, tooth, false), false);
+    let mut dentin: Vec<f32> = (0..n).filter(|&l| deep[l] && f64::from(vals[l]) <= enamel_cut).map(|l| vals[l]).collect();
+    if dentin.len() < 64 {
+        return vec![false; n];
+    }
+    let m = median(&mut dentin);
+    let mut dev: Vec<f32> = dentin.iter().map(|v| (v - m).abs()).collect();
+    let sigma = 1.4826 * f64::from(median(&mut dev));
+    let m = f64::from(m);
+    let cut = (m - (3.0 * sigma).max(0.1 * (m - cal.peak(Label::Pulp)))).max(hard_cut);
+    let dark: Vec<bool> = (0..n).map(|l| tooth[l] && f64::from(vals[l]) <= cut).collect();
+    let mut claimed = outside.to_vec();
+    for _ in 0..CANAL_RIM_VOXELS {
+        let grown = morph(g, &claimed, true);
+        claimed = (0..n).map(|l| claimed[l] || (grown[l] && dark[l])).collect();
+    }
+    (0..n).map(|l| dark[l] && !claimed[l]).collect()
+}
+
 /// Least depth (mm) of a body of bone grey for it to be bone, not a blurred edge.
 const BONE_DEPTH_MM: f64 = 0.4;
 
@@ -766,7 +802,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     // cavities in like the tooth does, and is no outside partner of the surface refinement.
     let bmetal: Vec<bool> = (0..bn).map(|l| out.labels[bx.global(l)] == Label::Metal as u8).collect();
     let open: Vec<bool> = (0..bn).map(|l| !(btooth[l] || closed[l] || bmetal[l])).collect();
-    let enclosed = {
+    let mut enclosed = {
         let outside = flood(&bx.g, &open, (0..bn).filter(|&l| open[l] && bx.on_face(l)));
         (0..bn).map(|l| open[l] && !outside[l]).collect::<Vec<bool>>()
     };
@@ -791,7 +827,23 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
         within(&bx.g, &thick, 5.0 * f64::from(h), vol.spacing)
     };
     let lesion_grey = |v: f64| (v - cal.peak(Label::Caries)).abs() < (v - cal.peak(Label::Pulp)).abs();
+    // Canals thinner than the hard-tissue threshold resolves (below).
+    let canal = thin_canals(&bx.g, &btooth, &bvals, &(0..bn).map(|l| open[l] && !behind_neck[l]).collect::<Vec<bool>>(), cal);
+    // (Only canals that reach a cavity the hard-tissue threshold found, the pulp chamber: a
+    // dark sheet of the blur's mix between roots close together joins none.)
+    let canal = {
+        let (id, sizes) = components(&bx.g, &(0..bn).map(|l| canal[l] || behind_neck[l]).collect::<Vec<bool>>());
+        let mut joins = vec![false; sizes.len()];
+        for l in (0..bn).filter(|&l| behind_neck[l]) {
+            joins[id[l] as usize] = true;
+        }
+        (0..bn).map(|l| canal[l] && joins[id[l] as usize]).collect::<Vec<bool>>()
+    };
     let mut candidates = behind_neck;
+    for l in (0..bn).filter(|&l| canal[l]) {
+        candidates[l] = true;
+        enclosed[l] = true;
+    }
     let pockets = if opts.detect_caries {
         // (Passed with the tooth in: the outline to close is the tooth's with its cavities.)
         let mut solid: Vec<bool> = (0..bn).map(|l| btooth[l] || candidates[l]).collect();
@@ -824,7 +876,10 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     // pulp's. (Its median grey would not do: the blur pulls a thin pulp's voxels toward the
     // dentin's.) A cavity at the surface without a body is partial volume, left to the dentin.
     let dentin_ref = cal.peak(Label::Dentin);
-    let deep = morph(&bx.g, &bcavity, false);
+    // (A thin canal's lining, darker than the dentin but above the hard-tissue threshold, is
+    // left out here: it would lift the pulp's measured grey and with it its border.)
+    let hard_cut = cal.mid(Label::BoneCortical, Label::Dentin);
+    let deep = morph(&bx.g, &(0..bn).map(|l| bcavity[l] && !(canal[l] && f64::from(bvals[l]) > hard_cut)).collect::<Vec<bool>>(), false);
     let mut deep_vals: Vec<Vec<f32>> = vec![Vec::new(); nc];
     for l in (0..bn).filter(|&l| deep[l]) {
         deep_vals[bid[l] as usize].push(bvals[l]);
@@ -939,7 +994,9 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             let cav = &cav_class[bid[l] as usize];
             match cav.class {
                 Label::Pulp if v < cav.threshold => Label::Pulp,
-                Label::Caries => Label::Caries,
+                // (a canal's lining that joined a lesion is the dentin it was: the lesion's
+                // border is refined below)
+                Label::Caries if !(canal[l] && v > hard_cut) => Label::Caries,
                 _ => Label::Dentin,
             }
         } else if surface_label[l] != 0 {

@@ -79,6 +79,9 @@ pub fn run(args: &Args) -> Result<()> {
                 volumes.join(", "),
                 path.display()
             );
+            for w in &report.warnings {
+                eprintln!("warning: tooth {n}: {w}");
+            }
         }
         return Ok(());
     }
@@ -93,6 +96,9 @@ pub fn run(args: &Args) -> Result<()> {
     print_calibration(&report);
     for t in &report.tissues {
         println!("{:<8} {:>9.2} mm³", t.name, t.volume_mm3);
+    }
+    for w in &report.warnings {
+        eprintln!("warning: {w}");
     }
     println!("wrote {} and {}", args.out.display(), report_path.display());
     Ok(())

@@ -116,3 +116,39 @@ fn mean(values: impl Iterator<Item = f64>) -> f64 {
     let (sum, n) = values.fold((0.0, 0usize), |(s, n), v| (s + v, n + 1));
     sum / n.max(1) as f64
 }
+
+/// A tooth without a pulp (a solid tooth-like body in air: a dentin ball on a root, an enamel cap
+/// over its upper half) is segmented all the same, and its report says there is no pulp and what
+/// to try (`--thresholds`), never silently.
+#[test]
+fn a_tooth_without_a_pulp_is_reported() {
+    use dentsim_cbct::{volume, SourceInfo, Volume};
+    let (n, h) = (60usize, 0.25);
+    let c = (n as f64 - 1.0) / 2.0;
+    let mut values = vec![0f32; n * n * n];
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let (x, y, z) = ((i as f64 - c) * h, (j as f64 - c) * h, (k as f64 - c) * h + 2.0);
+                let r = (x * x + y * y + z * z).sqrt();
+                let root = (x * x + y * y).sqrt() < 2.0 && (-5.5..0.0).contains(&z);
+                let noise = ((i * 7919 + j * 104_729 + k * 13) % 61) as f32 - 30.0;
+                values[i + n * (j + n * k)] = noise + if r < 3.5 || root { 2200.0 } else if r < 5.0 && z > 0.0 { 3000.0 } else { 100.0 };
+            }
+        }
+    }
+    let source = SourceInfo { format: "test".into(), path: "tooth without a pulp".into(), ..Default::default() };
+    let scan = Volume::new([n; 3], [h; 3], [0.0; 3], volume::IDENTITY, values, source).unwrap();
+    // the ball's centre: index c, c, c - 2 mm
+    let request = TissuesFromScan { seed_mm: Some([c * h, c * h, c * h - 2.0]), ..Default::default() };
+    let (_, report) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).unwrap();
+    let names: Vec<&str> = report.tissues.iter().map(|t| t.name.as_str()).collect();
+    assert!(names.contains(&"enamel") && names.contains(&"dentin") && !names.contains(&"pulp"), "{names:?}");
+    assert_eq!(report.warnings.len(), 1, "{:?}", report.warnings);
+    assert!(report.warnings[0].starts_with("no pulp was found") && report.warnings[0].contains("--thresholds"), "{}", report.warnings[0]);
+    // The molar phantom, pulp found: no warning.
+    let phantom = Phantom::new(&PhantomSpec::default());
+    let request = TissuesFromScan { seed_mm: phantom.tooth_seed(36), ..Default::default() };
+    let (_, report) = request.run(&phantom.scan(), &TissueTable::default(), &mut |_, _| {}).unwrap();
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+}

@@ -79,7 +79,38 @@ pub struct ScanReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub found: Option<(usize, FoundTooth)>,
     pub tissues: Vec<SegmentedTissue>,
+    /// What looks wrong with the result and what to try ([`pulp_warning`]); empty when nothing.
+    pub warnings: Vec<String>,
     pub seconds: Timings,
+}
+
+/// A tooth's pulp below this share of the tooth (enamel, dentin and pulp) is implausibly small:
+/// a pulp is 2–5 % of a tooth (an old tooth's, narrowed by secondary dentin, ~1 %), so less is
+/// more likely a pulp cavity the segmentation lost (opened to the outside at a thin apex, or
+/// its canals read as dentin) than anatomy.
+pub const MIN_PULP_SHARE: f64 = 0.004;
+
+/// A warning when the tooth has no pulp or an implausibly small one ([`MIN_PULP_SHARE`]),
+/// saying what to try: the result is kept (a tooth may have lost its pulp to calcification),
+/// never silently.
+pub fn pulp_warning(tissues: &[SegmentedTissue], calibration: &Calibration) -> Option<String> {
+    let volume = |name: &str| tissues.iter().find(|t| t.name == name).map_or(0.0, |t| t.volume_mm3);
+    let (pulp, tooth) = (volume("pulp"), volume("enamel") + volume("dentin") + volume("pulp"));
+    if tooth <= 0.0 || pulp >= MIN_PULP_SHARE * tooth {
+        return None;
+    }
+    let found = if pulp <= 0.0 { "no pulp was found".to_string() } else { format!("the pulp is {pulp:.2} mm³, {:.2} % of the tooth (a pulp is 2–5 %)", 100.0 * pulp / tooth) };
+    Some(format!(
+        "{found}: the pulp cavity may have been lost (opened to the outside at a thin apex, or its canals read as dentin). \
+         Check the grey values (calibration: dentin {:.1}, enamel {:.1}, tooth/outside threshold {:.1}) and try --thresholds \
+         with the grey of the medium around the tooth, the dentin and the enamel (e.g. --thresholds air={:.1},dentin={:.1},enamel={:.1})",
+        calibration.peak(Label::Dentin),
+        calibration.peak(Label::Enamel),
+        calibration.mid(Label::BoneCortical, Label::Dentin),
+        calibration.peak(Label::Air),
+        calibration.peak(Label::Dentin),
+        calibration.peak(Label::Enamel),
+    ))
 }
 
 #[derive(Clone, Debug, Default, Serialize)]
@@ -260,6 +291,7 @@ impl TissuesFromScan {
             crop_max: region.max,
             dentin_specks_relabelled: specks,
             canal_voxels_traced: canal_voxels,
+            warnings: pulp_warning(&tissues, &calibration).into_iter().collect(),
             calibration,
             found: None,
             tissues,
@@ -1101,6 +1133,22 @@ mod tests {
     use super::*;
     use glam::DVec3;
     use std::time::Duration;
+
+    fn tissue(name: &str, volume_mm3: f64) -> SegmentedTissue {
+        SegmentedTissue { name: name.into(), volume_mm3, scan_voxels: 0, active_voxels: 0, partial_volume: None, surface_offset_mm: 0.0 }
+    }
+
+    /// A tooth without a pulp, or with a speck of one, is reported with what to try; a tooth
+    /// with a pulp of a tooth's share is not.
+    #[test]
+    fn a_tooth_without_a_pulp_is_never_silent() {
+        let cal = Calibration::manual(&[(Label::Air, 0.0), (Label::Dentin, 2000.0), (Label::Enamel, 3000.0)]).unwrap();
+        let none = pulp_warning(&[tissue("enamel", 300.0), tissue("dentin", 400.0)], &cal).expect("no pulp: a warning");
+        assert!(none.starts_with("no pulp was found") && none.contains("--thresholds air=") && none.contains("dentin=2000.0"), "{none}");
+        let speck = pulp_warning(&[tissue("enamel", 300.0), tissue("dentin", 400.0), tissue("pulp", 1.0)], &cal).expect("a speck of pulp: a warning");
+        assert!(speck.contains("the pulp is 1.00 mm³") && speck.contains("--thresholds"), "{speck}");
+        assert_eq!(pulp_warning(&[tissue("enamel", 300.0), tissue("dentin", 400.0), tissue("pulp", 20.0)], &cal), None);
+    }
 
     /// A shell between a ball (the tooth) and a smaller ball poking out of it (the core) tapers
     /// to nothing at the rim where the two spheres cross, as the enamel does at the cervical
