@@ -103,8 +103,9 @@ pub struct Sweep {
     runs_only: bool,
     /// With the last build in columns, its column runs (see [`Sweep::column_runs`]).
     column_runs: ColumnRuns,
-    /// Per k of the box, the tool frame's z axis times the voxel's z (see `fill_columns`).
-    z_terms: Vec<DVec3>,
+    /// Per k of the box, the tool frame's z axis times the voxel's z, one list per component
+    /// (see `fill_columns`).
+    z_terms: [Vec<f64>; 3],
 }
 
 /// One row run's distances for a non-round head (see [`Sweep::build_in`]), voxel by voxel.
@@ -156,7 +157,9 @@ impl Sweep {
         let runs = &mut self.column_runs;
         runs.runs.reserve((12 * side as usize * side as usize).saturating_sub(runs.runs.len()));
         runs.values.reserve(total.saturating_sub(runs.values.len()));
-        self.z_terms.reserve((side as usize).saturating_sub(self.z_terms.len()));
+        for t in &mut self.z_terms {
+            t.reserve((side as usize).saturating_sub(t.len()));
+        }
         self.rows.reserve(side as usize);
         // The sub-poses of a translation that long (rotation adds more; those still grow once).
         let poses = (travel_mm.max(0.0) / (2.0 * GAP_VOXELS * voxel)).ceil().min(MAX_SUBSTEPS as f64) as usize + 2;
@@ -817,7 +820,7 @@ struct ColumnBounds<'a> {
 /// cut-off are written (the patch holds the cut-off elsewhere), each widening its row's span,
 /// and each run's part from its first such value to its last goes to `runs` with its values (see
 /// [`Sweep::column_runs`]); with `runs_only`, only there.
-fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only): (&mut ColumnRuns, &mut Vec<DVec3>, bool), inv: &DAffine3, bounds: &ColumnBounds, (voxel, band, cutoff, moves): (f64, f64, f64, f64)) {
+fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only): (&mut ColumnRuns, &mut [Vec<f64>; 3], bool), inv: &DAffine3, bounds: &ColumnBounds, (voxel, band, cutoff, moves): (f64, f64, f64, f64)) {
     use crate::burr::profile::{Lanes, LANES};
     let (lo, [nx, ny, _]) = (patch.index_min, patch.dims.map(|d| d as usize));
     let hi = lo + IVec3::from_array(patch.dims.map(|d| d as i32)) - IVec3::ONE;
@@ -828,8 +831,13 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only):
     let deep_held = (-band - f64::from(DONE_SLACK) - 1e-6) as f32;
     let plane = nx * ny;
     // The origin's z term per k, once per build rather than per voxel (the same product).
-    z_terms.clear();
-    z_terms.extend((lo.z..=hi.z).map(|k| inv.matrix3.z_axis * (f64::from(k) * voxel)));
+    // (Component by component, so that a batch's origins are sums along arrays, vectorised.)
+    for (c, terms) in z_terms.iter_mut().enumerate() {
+        terms.clear();
+        terms.extend((lo.z..=hi.z).map(|k| (inv.matrix3.z_axis * (f64::from(k) * voxel))[c]));
+    }
+    let [zx, zy, zz] = &*z_terms;
+    let origin_at = inv.translation;
     let mut out = [0f32; LANES];
     for i in lo.x..=hi.x {
         let x = f64::from(i) * voxel;
@@ -868,11 +876,16 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only):
                 while k <= b {
                     let n = ((b - k + 1) as usize).min(LANES);
                     let mut lanes = Lanes { t: [at as f32; LANES], ..Default::default() };
-                    let terms = &z_terms[(k - lo.z) as usize..(k - lo.z) as usize + n];
-                    for (l, term) in terms.iter().enumerate() {
-                        let origin = (across + *term + inv.translation).as_vec3();
-                        (lanes.x[l], lanes.y[l], lanes.z[l]) = (origin.x, origin.y, origin.z);
-                    }
+                    // `(across + term + translation).as_vec3()`, a component at a time.
+                    let from = (k - lo.z) as usize;
+                    let origins = |dst: &mut [f32; LANES], terms: &[f64], row: f64, shift: f64| {
+                        for (o, term) in dst[..n].iter_mut().zip(&terms[from..from + n]) {
+                            *o = (row + *term + shift) as f32;
+                        }
+                    };
+                    origins(&mut lanes.x, zx, across.x, origin_at.x);
+                    origins(&mut lanes.y, zy, across.y, origin_at.y);
+                    origins(&mut lanes.z, zz, across.z, origin_at.z);
                     burr.sdf_lanes(&lanes, n, step, &mut out);
                     for (l, d) in out[..n].iter_mut().enumerate() {
                         if *d + moved <= deep_held || !(*d < cutoff32) {
@@ -912,9 +925,23 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only):
 #[inline(always)]
 fn slab_hull(frustums: &[Frustum], boxes: &[[f64; 4]], p: f64, q: f64, interval: impl Fn(&Frustum, f64, f64) -> Option<(f64, f64)>) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (frustum, b) in frustums.iter().zip(boxes) {
+    // The end slabs first, then those between, each skipped when the part of the line between
+    // its planes lies within the hull already (its interval does: the same hull, bit for bit).
+    let n = frustums.len();
+    for i in 0..n {
+        let s = match i {
+            0 => 0,
+            1 => n - 1,
+            _ => i - 1,
+        };
+        let (frustum, b) = (&frustums[s], &boxes[s]);
         if p < b[0] || p > b[1] || q < b[2] || q > b[3] {
             continue;
+        }
+        if let Some((l, h)) = frustum.planes_interval(p, q) {
+            if l >= lo && h <= hi {
+                continue;
+            }
         }
         if let Some((l, h)) = interval(frustum, p, q) {
             lo = lo.min(l);
@@ -1134,6 +1161,20 @@ impl Frustum {
         let qb = 2.0 * (w.x - u.x * (wu + s * g));
         let qc = w.length_squared() - wu * wu - g * g;
         (wu, qb, qc)
+    }
+
+    /// The x-interval of the line {(x, y, z)} between the slab's planes, as
+    /// [`x_interval`](Self::x_interval) computes it (which gives a part of it); None for a line
+    /// (nearly) parallel to them.
+    #[inline(always)]
+    fn planes_interval(&self, y: f64, z: f64) -> Option<(f64, f64)> {
+        let (a, u) = (self.a, self.u);
+        if !(u.x.abs() > 1e-12) {
+            return None;
+        }
+        let wu = DVec3::new(-a.x, y - a.y, z - a.z).dot(u);
+        let (s0, s1) = (-wu * self.inv_ux, (self.len - wu) * self.inv_ux);
+        Some((s0.min(s1), s0.max(s1)))
     }
 
     /// An x-interval of the line {(x, y, z)} holding its points within the frustum, if any.
