@@ -103,9 +103,8 @@ pub struct Sweep {
     runs_only: bool,
     /// With the last build in columns, its column runs (see [`Sweep::column_runs`]).
     column_runs: ColumnRuns,
-    /// Per k of the box, the tool frame's z axis times the voxel's z, one list per component
-    /// (see `fill_columns`).
-    z_terms: [Vec<f64>; 3],
+    /// Per k of the box, the tool frame's z axis times the voxel's z (see `fill_columns`).
+    z_terms: Vec<DVec3>,
 }
 
 /// One row run's distances for a non-round head (see [`Sweep::build_in`]), voxel by voxel.
@@ -157,9 +156,7 @@ impl Sweep {
         let runs = &mut self.column_runs;
         runs.runs.reserve((12 * side as usize * side as usize).saturating_sub(runs.runs.len()));
         runs.values.reserve(total.saturating_sub(runs.values.len()));
-        for t in &mut self.z_terms {
-            t.reserve((side as usize).saturating_sub(t.len()));
-        }
+        self.z_terms.reserve((side as usize).saturating_sub(self.z_terms.len()));
         self.rows.reserve(side as usize);
         // The sub-poses of a translation that long (rotation adds more; those still grow once).
         let poses = (travel_mm.max(0.0) / (2.0 * GAP_VOXELS * voxel)).ceil().min(MAX_SUBSTEPS as f64) as usize + 2;
@@ -820,7 +817,7 @@ struct ColumnBounds<'a> {
 /// cut-off are written (the patch holds the cut-off elsewhere), each widening its row's span,
 /// and each run's part from its first such value to its last goes to `runs` with its values (see
 /// [`Sweep::column_runs`]); with `runs_only`, only there.
-fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only): (&mut ColumnRuns, &mut [Vec<f64>; 3], bool), inv: &DAffine3, bounds: &ColumnBounds, (voxel, band, cutoff, moves): (f64, f64, f64, f64)) {
+fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only): (&mut ColumnRuns, &mut Vec<DVec3>, bool), inv: &DAffine3, bounds: &ColumnBounds, (voxel, band, cutoff, moves): (f64, f64, f64, f64)) {
     use crate::burr::profile::{Lanes, LANES};
     let (lo, [nx, ny, _]) = (patch.index_min, patch.dims.map(|d| d as usize));
     let hi = lo + IVec3::from_array(patch.dims.map(|d| d as i32)) - IVec3::ONE;
@@ -831,13 +828,8 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only):
     let deep_held = (-band - f64::from(DONE_SLACK) - 1e-6) as f32;
     let plane = nx * ny;
     // The origin's z term per k, once per build rather than per voxel (the same product).
-    // (Component by component, so that a batch's origins are sums along arrays, vectorised.)
-    for (c, terms) in z_terms.iter_mut().enumerate() {
-        terms.clear();
-        terms.extend((lo.z..=hi.z).map(|k| (inv.matrix3.z_axis * (f64::from(k) * voxel))[c]));
-    }
-    let [zx, zy, zz] = &*z_terms;
-    let origin_at = inv.translation;
+    z_terms.clear();
+    z_terms.extend((lo.z..=hi.z).map(|k| inv.matrix3.z_axis * (f64::from(k) * voxel)));
     let mut out = [0f32; LANES];
     for i in lo.x..=hi.x {
         let x = f64::from(i) * voxel;
@@ -876,16 +868,11 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only):
                 while k <= b {
                     let n = ((b - k + 1) as usize).min(LANES);
                     let mut lanes = Lanes { t: [at as f32; LANES], ..Default::default() };
-                    // `(across + term + translation).as_vec3()`, a component at a time.
-                    let from = (k - lo.z) as usize;
-                    let origins = |dst: &mut [f32; LANES], terms: &[f64], row: f64, shift: f64| {
-                        for (o, term) in dst[..n].iter_mut().zip(&terms[from..from + n]) {
-                            *o = (row + *term + shift) as f32;
-                        }
-                    };
-                    origins(&mut lanes.x, zx, across.x, origin_at.x);
-                    origins(&mut lanes.y, zy, across.y, origin_at.y);
-                    origins(&mut lanes.z, zz, across.z, origin_at.z);
+                    let terms = &z_terms[(k - lo.z) as usize..(k - lo.z) as usize + n];
+                    for (l, term) in terms.iter().enumerate() {
+                        let origin = (across + *term + inv.translation).as_vec3();
+                        (lanes.x[l], lanes.y[l], lanes.z[l]) = (origin.x, origin.y, origin.z);
+                    }
                     burr.sdf_lanes(&lanes, n, step, &mut out);
                     for (l, d) in out[..n].iter_mut().enumerate() {
                         if *d + moved <= deep_held || !(*d < cutoff32) {
