@@ -49,7 +49,8 @@ CutStats subtract_as(LevelSet::Impl& impl, std::array<int32_t, 3> index_min,
     throw std::invalid_argument("tool patch has " + std::to_string(spans.size() / 2) +
                                 " row spans for " + std::to_string(rows) + " rows");
   const uint32_t* sp = spans.empty() ? nullptr : spans.data();
-  for (size_t r = 0; sp && r < rows; ++r)
+  // Given column runs, the spans are not read: checking each row's cost a twelfth of the subtract.
+  for (size_t r = 0; sp && runs.empty() && r < rows; ++r)
     if (sp[2 * r] > sp[2 * r + 1] || sp[2 * r + 1] > dims[0])
       throw std::invalid_argument("tool patch row span " + std::to_string(r) + " is not within its row");
   const size_t columns = size_t(dims[0]) * dims[1];

@@ -354,7 +354,7 @@ impl LevelSet {
     /// [`subtract_logged`](Self::subtract_logged) along a patch's [`ColumnRuns`] instead of its
     /// row spans: the same voxels to the same values, read along z (the leaves' fastest axis) from
     /// the runs' own copy of the values, so neither side is read with a stride; logged in the
-    /// runs' order. Empty runs: the spans.
+    /// runs' order. Empty runs: the spans (with runs, the spans are not read, nor checked).
     pub fn subtract_logged_runs(&mut self, patch: &DensePatch, runs: &ColumnRuns, offset: f32, measure: Measure, log: &mut Vec<VoxelChange>) -> Result<CutStats> {
         let measured = measure == Measure::Volume;
         let s = self

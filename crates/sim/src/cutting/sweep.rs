@@ -912,9 +912,23 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only):
 #[inline(always)]
 fn slab_hull(frustums: &[Frustum], boxes: &[[f64; 4]], p: f64, q: f64, interval: impl Fn(&Frustum, f64, f64) -> Option<(f64, f64)>) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    for (frustum, b) in frustums.iter().zip(boxes) {
+    // The end slabs first, then those between, each skipped when the part of the line between
+    // its planes lies within the hull already (its interval does: the same hull, bit for bit).
+    let n = frustums.len();
+    for i in 0..n {
+        let s = match i {
+            0 => 0,
+            1 => n - 1,
+            _ => i - 1,
+        };
+        let (frustum, b) = (&frustums[s], &boxes[s]);
         if p < b[0] || p > b[1] || q < b[2] || q > b[3] {
             continue;
+        }
+        if let Some((l, h)) = frustum.planes_interval(p, q) {
+            if l >= lo && h <= hi {
+                continue;
+            }
         }
         if let Some((l, h)) = interval(frustum, p, q) {
             lo = lo.min(l);
@@ -1134,6 +1148,20 @@ impl Frustum {
         let qb = 2.0 * (w.x - u.x * (wu + s * g));
         let qc = w.length_squared() - wu * wu - g * g;
         (wu, qb, qc)
+    }
+
+    /// The x-interval of the line {(x, y, z)} between the slab's planes, as
+    /// [`x_interval`](Self::x_interval) computes it (which gives a part of it); None for a line
+    /// (nearly) parallel to them.
+    #[inline(always)]
+    fn planes_interval(&self, y: f64, z: f64) -> Option<(f64, f64)> {
+        let (a, u) = (self.a, self.u);
+        if !(u.x.abs() > 1e-12) {
+            return None;
+        }
+        let wu = DVec3::new(-a.x, y - a.y, z - a.z).dot(u);
+        let (s0, s1) = (-wu * self.inv_ux, (self.len - wu) * self.inv_ux);
+        Some((s0.min(s1), s0.max(s1)))
     }
 
     /// An x-interval of the line {(x, y, z)} holding its points within the frustum, if any.
