@@ -127,7 +127,10 @@ def same(what, ours, theirs):
     for name in v1:
         check(abs(v1[name] / v2[name] - 1.0) < 1e-3, "%s %s volume %.3f vs the CLI's %.3f" % (what, name, v1[name], v2[name]))
         far = max(abs(a - b) for a, b in zip(b1[name], b2[name]))
-        check(far < 0.01, "%s %s bounds %s vs the CLI's %s" % (what, name, b1[name], b2[name]))
+        # A wrong frame (origin, axis flip, signedness) moves a tissue by a scan voxel (0.2 mm) or
+        # more; a series stored mirrored is resampled onto the tissues' grid from the other side,
+        # which moves a thin edge by a fraction of that grid's voxel (0.0145 mm at 0.1 mm).
+        check(far < 0.2 * VOXEL_MM, "%s %s bounds %s vs the CLI's %s" % (what, name, b1[name], b2[name]))
         print("%s %s %.2f mm3, bounds within %.4f mm of the CLI's" % (what, name, v1[name], far))
 
 
