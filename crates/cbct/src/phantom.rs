@@ -1081,6 +1081,39 @@ pub struct FamilyCase {
     pub spec: PhantomSpec,
 }
 
+/// A tooth-like solid for calibration and segmentation tests: a core (a 3.5 mm ball on a
+/// root-like cylinder) with a shell to 5 mm over the ball's upper half only (as enamel covers only
+/// the crown), on a 60³ grid of 0.25 mm, grey values with a little deterministic noise; around it
+/// `outside(x, y, z)`'s grey (mm from the ball's centre) where it gives one, else 100.
+pub fn layered_ball(shell_grey: f32, core_grey: f32, outside: &dyn Fn(f64, f64, f64) -> Option<f32>) -> crate::Result<Volume> {
+    let n = 60usize;
+    let h = 0.25;
+    let c = (n as f64 - 1.0) / 2.0;
+    let mut values = vec![0f32; n * n * n];
+    for k in 0..n {
+        for j in 0..n {
+            for i in 0..n {
+                let (x, y, z) = ((i as f64 - c) * h, (j as f64 - c) * h, (k as f64 - c) * h + 2.0);
+                let r = (x * x + y * y + z * z).sqrt();
+                let root = (x * x + y * y).sqrt() < 2.0 && (-5.5..0.0).contains(&z);
+                let noise = ((i * 7919 + j * 104_729 + k * 13) % 61) as f32 - 30.0;
+                values[i + n * (j + n * k)] = noise
+                    + if r < 3.5 || root {
+                        core_grey
+                    } else if r < 5.0 && z > 0.0 {
+                        shell_grey
+                    } else if let Some(grey) = outside(x, y, z) {
+                        grey
+                    } else {
+                        100.0
+                    };
+            }
+        }
+    }
+    let source = SourceInfo { format: "test".into(), path: "layered ball".into(), ..Default::default() };
+    Volume::new([n; 3], [h; 3], [0.0; 3], crate::volume::IDENTITY, values, source)
+}
+
 /// The phantom family: every tooth type, upper and lower, one to three roots, in the jaw with
 /// neighbours (the field of view cutting them, or holding them), alone in air, wax or water;
 /// tilted grids, anisotropic voxels, voxel sizes 0.075–0.4 mm, a restoration, noise, grey scales

@@ -41,40 +41,9 @@ fn the_fast_family_is_calibrated_and_segmented() {
     assert!(worst[0] < 0.06 && worst[1] < 0.06 && worst[2] < 0.20, "{worst:?}");
 }
 
-/// A tooth-like solid in air: a core (a ball on a root-like cylinder) with a shell over the
-/// ball's upper half only (as enamel covers only the crown), grey values with a little noise.
+/// The tooth-like solid in air ([`phantom::layered_ball`]) with nothing around it.
 fn layered_ball(shell_grey: f32, core_grey: f32) -> Volume {
-    layered_ball_in(shell_grey, core_grey, &|_, _, _| None)
-}
-
-/// As [`layered_ball`], with `outside(x, y, z)`'s grey where it gives one outside the tooth.
-fn layered_ball_in(shell_grey: f32, core_grey: f32, outside: &dyn Fn(f64, f64, f64) -> Option<f32>) -> Volume {
-    let n = 60usize;
-    let h = 0.25;
-    let c = (n as f64 - 1.0) / 2.0;
-    let mut values = vec![0f32; n * n * n];
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                let (x, y, z) = ((i as f64 - c) * h, (j as f64 - c) * h, (k as f64 - c) * h + 2.0);
-                let r = (x * x + y * y + z * z).sqrt();
-                let root = (x * x + y * y).sqrt() < 2.0 && (-5.5..0.0).contains(&z);
-                let noise = ((i * 7919 + j * 104_729 + k * 13) % 61) as f32 - 30.0;
-                values[i + n * (j + n * k)] = noise
-                    + if r < 3.5 || root {
-                        core_grey
-                    } else if r < 5.0 && z > 0.0 {
-                        shell_grey
-                    } else if let Some(grey) = outside(x, y, z) {
-                        grey
-                    } else {
-                        100.0
-                    };
-            }
-        }
-    }
-    let source = SourceInfo { format: "test".into(), path: "layered ball".into(), ..Default::default() };
-    Volume::new([n; 3], [h; 3], [0.0; 3], volume::IDENTITY, values, source).unwrap()
+    phantom::layered_ball(shell_grey, core_grey, &|_, _, _| None).unwrap()
 }
 
 #[test]
@@ -88,14 +57,14 @@ fn a_bright_shell_over_a_darker_core_reads_as_enamel_over_dentin() {
 #[test]
 fn a_peak_is_a_tissue_only_where_its_grey_fills_a_body() {
     // Dentin 2200 and enamel 3000 put cortical bone (1150 HU) at grey 1729.
-    let rim = calibrate(&layered_ball_in(3000.0, 2200.0, &|x, y, z| (z > 0.0 && (x * x + y * y + z * z).sqrt() < 5.25).then_some(1730.0))).unwrap();
+    let rim = calibrate(&phantom::layered_ball(3000.0, 2200.0, &|x, y, z| (z > 0.0 && (x * x + y * y + z * z).sqrt() < 5.25).then_some(1730.0)).unwrap()).unwrap();
     assert!((rim.peak(Label::Enamel) - 3000.0).abs() < 50.0 && (rim.peak(Label::Dentin) - 2200.0).abs() < 50.0, "{rim:#?}");
     let peaks: Vec<f64> = rim.evidence.iter().filter_map(|e| e.strip_prefix("histogram peaks at ")).flat_map(|l| l.split(", ").filter_map(|g| g.parse().ok())).collect();
     assert!(peaks.iter().any(|g| (g - 1730.0).abs() < 50.0), "the rim makes a peak: {:?}", rim.evidence);
     assert!(!rim.measured.iter().any(|m| m.starts_with("bone")), "a rim is no bone: {:?}", rim.measured);
     // 2 mm of it around the root, below the crown: a socket.
     let socket = |x: f64, y: f64, z: f64| ((x * x + y * y).sqrt() < 4.0 && (-6.0..-1.0).contains(&z)).then_some(1730.0);
-    let body = calibrate(&layered_ball_in(3000.0, 2200.0, &socket)).unwrap();
+    let body = calibrate(&phantom::layered_ball(3000.0, 2200.0, &socket).unwrap()).unwrap();
     assert!(body.measured.iter().any(|m| m == "bone_cortical"), "a body of bone's grey is bone: {:?}", body.measured);
     assert!((body.peak(Label::BoneCortical) - 1730.0).abs() < 50.0, "{body:#?}");
 }
@@ -125,7 +94,7 @@ fn leaving_out_a_bump_moves_no_other_peak_to_another_tissue() {
             }
         })
     };
-    let cal = calibrate(&layered_ball_in(3000.0, 1900.0, &jaw)).unwrap();
+    let cal = calibrate(&phantom::layered_ball(3000.0, 1900.0, &jaw).unwrap()).unwrap();
     let peaks: Vec<f64> = cal.evidence.iter().filter_map(|e| e.strip_prefix("histogram peaks at ")).flat_map(|l| l.split(", ").filter_map(|g| g.parse().ok())).collect();
     for rim in [-685.0, -361.0, 269.0, 637.0] {
         assert!(peaks.iter().any(|g| (g - rim).abs() < 60.0), "the rim at {rim} makes a peak: {peaks:?}");

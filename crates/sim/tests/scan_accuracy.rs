@@ -122,23 +122,9 @@ fn mean(values: impl Iterator<Item = f64>) -> f64 {
 /// to try (`--thresholds`), never silently.
 #[test]
 fn a_tooth_without_a_pulp_is_reported() {
-    use dentsim_cbct::{volume, SourceInfo, Volume};
+    let scan = dentsim_cbct::phantom::layered_ball(3000.0, 2200.0, &|_, _, _| None).unwrap();
     let (n, h) = (60usize, 0.25);
     let c = (n as f64 - 1.0) / 2.0;
-    let mut values = vec![0f32; n * n * n];
-    for k in 0..n {
-        for j in 0..n {
-            for i in 0..n {
-                let (x, y, z) = ((i as f64 - c) * h, (j as f64 - c) * h, (k as f64 - c) * h + 2.0);
-                let r = (x * x + y * y + z * z).sqrt();
-                let root = (x * x + y * y).sqrt() < 2.0 && (-5.5..0.0).contains(&z);
-                let noise = ((i * 7919 + j * 104_729 + k * 13) % 61) as f32 - 30.0;
-                values[i + n * (j + n * k)] = noise + if r < 3.5 || root { 2200.0 } else if r < 5.0 && z > 0.0 { 3000.0 } else { 100.0 };
-            }
-        }
-    }
-    let source = SourceInfo { format: "test".into(), path: "tooth without a pulp".into(), ..Default::default() };
-    let scan = Volume::new([n; 3], [h; 3], [0.0; 3], volume::IDENTITY, values, source).unwrap();
     // the ball's centre: index c, c, c - 2 mm
     let request = TissuesFromScan { seed_mm: Some([c * h, c * h, c * h - 2.0]), ..Default::default() };
     let (_, report) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).unwrap();
