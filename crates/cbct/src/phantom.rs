@@ -463,7 +463,11 @@ impl Tooth {
     }
 
     fn eval(&self, p: DVec3) -> ToothEval {
-        let t = self.outer(p);
+        self.eval_within(p, self.outer(p))
+    }
+
+    /// [`Tooth::eval`] given the outer surface's value `t` at `p`.
+    fn eval_within(&self, p: DVec3, t: f64) -> ToothEval {
         // Enamel thickness ramps from 0 at the CEJ to enamel_t 2.5 mm above it (smoothstep);
         // dividing by 1 + max slope keeps the dentin core Lipschitz ≤ 1.
         let u = (p.z / 2.5).clamp(0.0, 1.0);
@@ -552,6 +556,9 @@ const PDL_MM: f64 = 0.2;
 /// 65 grey levels of partial volume, near a scanner's continuous mix (2³ gave 9, and hid
 /// calibration defects that the levels in between expose).
 pub const PV_SAMPLES: usize = 4;
+
+/// Voxels per axis of the boxes the scan is made in (layers per parallel task too).
+const SCAN_BOX: usize = 8;
 const CORTICAL_MM: f64 = 1.2;
 
 impl Phantom {
@@ -674,10 +681,12 @@ impl Phantom {
                 margin = margin.min(out - PDL_MM - 0.05);
                 continue;
             }
-            let e = t.eval(q);
-            teeth_min = teeth_min.min(e.tooth);
-            margin = margin.min(e.tooth.abs()).min((e.tooth - PDL_MM).abs());
-            if e.tooth < 0.0 {
+            // the inner surfaces only matter inside the tooth
+            let outer = t.outer(q);
+            teeth_min = teeth_min.min(outer);
+            margin = margin.min(outer.abs()).min((outer - PDL_MM).abs());
+            if outer < 0.0 {
+                let e = t.eval_within(q, outer);
                 margin = margin.min(e.dentin_core.abs()).min(e.pulp.abs()).min(e.caries.abs()).min(e.metal.abs());
                 inside = Some((e, t));
             }
@@ -920,39 +929,22 @@ impl Phantom {
             Label::SoftTissue => soft,
             _ => l.typical_hu() as f32,
         };
-        hu.par_chunks_mut(nx * ny).enumerate().for_each(|(k, sl)| {
-            for j in 0..ny {
-                for i in 0..nx {
-                    let c = self.voxel_center(i, j, k);
-                    let e = self.scene(c);
-                    sl[i + nx * j] = if e.margin > 0.87 * sp.iter().cloned().fold(0.0, f64::max) {
-                        hu_of(e.label)
-                    } else {
-                        let n = PV_SAMPLES;
-                        let dir = self.spec.direction();
-                        let frac = |s: usize| (s as f64 + 0.5) / n as f64 - 0.5;
-                        let offset = |f: [f64; 3]| (0..3).fold(DVec3::ZERO, |o, a| o + DVec3::from_array(dir[a]) * (f[a] * sp[a]));
-                        // Where one label holds over an octant's samples (the scene's margin at
-                        // its centre beyond its farthest sample), it serves them all: an eighth
-                        // of the scene evaluations there. The sum keeps the samples' order, so
-                        // the grey is the same bit for bit.
-                        let half = n / 2;
-                        let octant: [Option<Label>; 8] = std::array::from_fn(|o| {
-                            let span = |a: usize| if (o >> a) & 1 == 0 { (frac(0), frac(half - 1)) } else { (frac(half), frac(n - 1)) };
-                            let centre = [0, 1, 2].map(|a| 0.5 * (span(a).0 + span(a).1));
-                            let far = (0..3).map(|a| (0.5 * (span(a).1 - span(a).0) * sp[a]).powi(2)).sum::<f64>().sqrt();
-                            let e = self.scene(c + offset(centre));
-                            (e.margin > far).then_some(e.label)
-                        });
-                        let mut acc = 0.0;
-                        for d in 0..n * n * n {
-                            let s = [d % n, (d / n) % n, d / (n * n)];
-                            let o = (0..3).fold(0, |o, a| o | usize::from(s[a] >= half) << a);
-                            let label = octant[o].unwrap_or_else(|| self.label_at(c + offset(s.map(frac))));
-                            acc += hu_of(label);
-                        }
-                        acc / (n * n * n) as f32
-                    };
+        // Boxes of voxels where one label holds over every sample of every voxel (the scene's
+        // margin at the box's centre beyond its farthest sample) are filled without visiting
+        // each voxel; elsewhere the box splits down to single voxels. Exact where a uniform
+        // voxel's average is its label's grey (checked per label), as for every grey here.
+        let uniform_exact: [bool; 9] = std::array::from_fn(|l| {
+            let grey = hu_of(Label::ALL[l]);
+            let samples = PV_SAMPLES * PV_SAMPLES * PV_SAMPLES;
+            (0..samples).fold(0.0f32, |acc, _| acc + grey) / samples as f32 == grey
+        });
+        hu.par_chunks_mut(nx * ny * SCAN_BOX).enumerate().for_each(|(kb, slab)| {
+            let k0 = kb * SCAN_BOX;
+            let k1 = (k0 + SCAN_BOX).min(nz);
+            for j0 in (0..ny).step_by(SCAN_BOX) {
+                for i0 in (0..nx).step_by(SCAN_BOX) {
+                    let hi = [(i0 + SCAN_BOX).min(nx), (j0 + SCAN_BOX).min(ny), k1];
+                    self.fill_box(slab, k0, [i0, j0, k0], hi, &hu_of, &uniform_exact);
                 }
             }
         });
@@ -992,6 +984,76 @@ impl Phantom {
             ..Default::default()
         };
         Volume { dims: self.spec.dims, spacing: sp, origin: self.origin, direction: self.spec.direction(), values: hu, source }
+    }
+
+    /// Fills the voxels `lo..hi` (index box; `slab` starts at layer `k0`) with their grey: at
+    /// once where one label holds over the whole box, else box by box down to single voxels.
+    fn fill_box(&self, slab: &mut [f32], k0: usize, lo: [usize; 3], hi: [usize; 3], hu_of: &impl Fn(Label) -> f32, uniform_exact: &[bool; 9]) {
+        let [nx, ny, _] = self.spec.dims;
+        let count = [0, 1, 2].map(|a| hi[a] - lo[a]);
+        if count == [1, 1, 1] {
+            slab[lo[0] + nx * (lo[1] + ny * (lo[2] - k0))] = self.voxel_grey(self.voxel_center(lo[0], lo[1], lo[2]), hu_of);
+            return;
+        }
+        let sp = self.spec.spacing();
+        // the box's centre and its farthest sample (a voxel's samples reach 0.5 - 0.5/n of it)
+        let reach = 0.5 - 0.5 / PV_SAMPLES as f64;
+        let half = count.map(|m| 0.5 * (m as f64 - 1.0));
+        let dir = self.spec.direction();
+        let centre = (0..3).fold(self.voxel_center(lo[0], lo[1], lo[2]), |c, a| c + DVec3::from_array(dir[a]) * (half[a] * sp[a]));
+        let far = (0..3).map(|a| ((half[a] + reach) * sp[a]).powi(2)).sum::<f64>().sqrt();
+        let e = self.scene(centre);
+        if e.margin > far && uniform_exact[e.label as usize] {
+            let grey = hu_of(e.label);
+            for k in lo[2]..hi[2] {
+                for j in lo[1]..hi[1] {
+                    let row = nx * (j + ny * (k - k0));
+                    slab[row + lo[0]..row + hi[0]].fill(grey);
+                }
+            }
+            return;
+        }
+        // split the longest axis in two
+        let axis = (0..3).max_by_key(|&a| count[a]).unwrap_or(0);
+        let mid = lo[axis] + count[axis] / 2;
+        let (mut hi_a, mut lo_b) = (hi, lo);
+        hi_a[axis] = mid;
+        lo_b[axis] = mid;
+        self.fill_box(slab, k0, lo, hi_a, hu_of, uniform_exact);
+        self.fill_box(slab, k0, lo_b, hi, hu_of, uniform_exact);
+    }
+
+    /// One voxel's grey before blur and noise: its label's where the scene's margin clears the
+    /// voxel, else the mean over [`PV_SAMPLES`]³ samples.
+    fn voxel_grey(&self, c: DVec3, hu_of: &impl Fn(Label) -> f32) -> f32 {
+        let sp = self.spec.spacing();
+        let e = self.scene(c);
+        if e.margin > 0.87 * sp.iter().cloned().fold(0.0, f64::max) {
+            return hu_of(e.label);
+        }
+        let n = PV_SAMPLES;
+        let dir = self.spec.direction();
+        let frac = |s: usize| (s as f64 + 0.5) / n as f64 - 0.5;
+        let offset = |f: [f64; 3]| (0..3).fold(DVec3::ZERO, |o, a| o + DVec3::from_array(dir[a]) * (f[a] * sp[a]));
+        // Where one label holds over an octant's samples (the scene's margin at its centre
+        // beyond its farthest sample), it serves them all: an eighth of the scene evaluations
+        // there. The sum keeps the samples' order, so the grey is the same bit for bit.
+        let half = n / 2;
+        let octant: [Option<Label>; 8] = std::array::from_fn(|o| {
+            let span = |a: usize| if (o >> a) & 1 == 0 { (frac(0), frac(half - 1)) } else { (frac(half), frac(n - 1)) };
+            let centre = [0, 1, 2].map(|a| 0.5 * (span(a).0 + span(a).1));
+            let far = (0..3).map(|a| (0.5 * (span(a).1 - span(a).0) * sp[a]).powi(2)).sum::<f64>().sqrt();
+            let e = self.scene(c + offset(centre));
+            (e.margin > far).then_some(e.label)
+        });
+        let mut acc = 0.0;
+        for d in 0..n * n * n {
+            let s = [d % n, (d / n) % n, d / (n * n)];
+            let o = (0..3).fold(0, |o, a| o | usize::from(s[a] >= half) << a);
+            let label = octant[o].unwrap_or_else(|| self.label_at(c + offset(s.map(frac))));
+            acc += hu_of(label);
+        }
+        acc / (n * n * n) as f32
     }
 
     /// Bright and dark bands along lines through the metal in each axial slice it spans, as
@@ -1203,4 +1265,45 @@ pub fn family(full: bool) -> Vec<FamilyCase> {
         ]);
     }
     cases
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The scan made box by box has every voxel's grey as the voxel alone gives it.
+    #[test]
+    fn boxes_fill_each_voxel_as_the_voxel_alone_would() {
+        let bare = PhantomSpec { dims: [37, 29, 41], blur_sigma_mm: 0.0, noise_sigma: 0.0, scale: 1.0, offset: 0.0, ..Default::default() };
+        let specs = [
+            bare.clone(),
+            PhantomSpec { caries: true, tilt_deg: [10.0, -7.0, 25.0], ..bare.clone() },
+            PhantomSpec { tooth: 24, medium: Medium::Air, spacing_xyz: Some([0.25, 0.3, 0.4]), ..bare.clone() },
+            // the arch's whole width, coarse (its middle is the tongue's space)
+            PhantomSpec { arch: true, spacing_mm: 0.6, dims: [144, 122, 14], ..bare.clone() },
+        ];
+        for spec in specs {
+            let phantom = Phantom::new(&spec);
+            let scan = phantom.scan();
+            let soft = spec.medium.soft_hu();
+            let hu_of = |l: Label| match l {
+                Label::Metal => 8000.0,
+                Label::SoftTissue => soft,
+                _ => l.typical_hu() as f32,
+            };
+            let [nx, ny, nz] = spec.dims;
+            let mut boundary = 0;
+            for k in 0..nz {
+                for j in 0..ny {
+                    for i in 0..nx {
+                        let alone = phantom.voxel_grey(phantom.voxel_center(i, j, k), &hu_of).min(3071.0);
+                        let made = scan.values[i + nx * (j + ny * k)];
+                        assert_eq!(made.to_bits(), alone.to_bits(), "voxel ({i}, {j}, {k}) of {spec:?}");
+                        boundary += usize::from(Label::ALL.iter().all(|&l| hu_of(l).min(3071.0) != alone));
+                    }
+                }
+            }
+            assert!(boundary > 100, "the box holds tissue boundaries: {boundary} mixed voxels");
+        }
+    }
 }
