@@ -28,7 +28,8 @@ DENTSIM_APT_PACKAGES=(
 # the device tests and `dentsim bench`'s igtl_round_trip measure against.
 DENTSIM_PIP_PACKAGES=(pyigtl)
 
-dentsim_log() { printf '[dentsim setup] %s\n' "$*" >&2; }
+# Seconds since the script started, so a slow run's log shows which step took the time.
+dentsim_log() { printf '[dentsim setup %4ds] %s\n' "$SECONDS" "$*" >&2; }
 
 dentsim_install_packages() {
   local missing=()
@@ -75,3 +76,5 @@ dentsim_install_packages
 dentsim_install_pip_packages
 dentsim_ensure_cargo
 dentsim_build
+dentsim_log "set up"
+
