@@ -154,10 +154,16 @@ pub struct BenchTooth {
 }
 
 pub fn bench_tooth() -> Result<BenchTooth> {
+    bench_tooth_at(dentsim_sim::tissues::model::DEFAULT_VOXEL_MM)
+}
+
+/// The bench tooth with level sets of `voxel_mm` (a quick run's smoke test takes
+/// [`QUICK_VOXEL_MM`]: its figures mean nothing, its segmentation need not be fine).
+pub fn bench_tooth_at(voxel_mm: f64) -> Result<BenchTooth> {
     use dentsim_cbct::{Phantom, PhantomSpec};
     let phantom = Phantom::new(&PhantomSpec::default());
     let seed = phantom.tooth_seed(36).map(DVec3::from_array).ok_or_else(|| dentsim_sim::error::invalid("bench tooth", "the phantom has no tooth 36"))?;
-    let request = dentsim_sim::tissues::from_scan::TissuesFromScan { seed_mm: Some(seed.to_array()), ..Default::default() };
+    let request = dentsim_sim::tissues::from_scan::TissuesFromScan { seed_mm: Some(seed.to_array()), voxel_size_mm: voxel_mm, ..Default::default() };
     let (model, _) = request.run(&phantom.scan(), &TissueTable::default(), &mut |_, _| {})?;
     let enamel = model.get("enamel").ok_or_else(|| dentsim_sim::error::invalid("bench tooth", "no enamel segmented"))?;
     let mut reader = enamel.grid.reader();
@@ -561,8 +567,8 @@ pub fn all_teeth(quick: bool) -> Result<BenchRow> {
     Ok(BenchRow::new(name, &ours, &peer_text, &peer))
 }
 
-/// The tissues' voxel in a quick (smoke) run of the scan rows: 8× fewer voxels than the 0.05 mm
-/// the goals are set at, so `dentsim bench --quick` stays a short test.
+/// The tissues' voxel in a quick (smoke) run, for the bench tooth and the scan rows: 8× fewer
+/// voxels than the 0.05 mm the goals are set at, so `dentsim bench --quick` stays a short test.
 pub const QUICK_VOXEL_MM: f64 = 0.1;
 
 fn tissue_voxel_mm(quick: bool) -> f64 {
@@ -751,8 +757,9 @@ pub fn batch_shards(cfg: BenchConfig) -> Result<BenchRow> {
 
 /// Every row, in a fixed order; `progress(row name)` is called before each.
 pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<BenchRow>> {
+    let quick = cfg.repetitions < BenchConfig::full().repetitions;
     progress("building the tooth");
-    let tooth = bench_tooth()?;
+    let tooth = bench_tooth_at(tissue_voxel_mm(quick))?;
     let model = &tooth;
     progress("sdf_sample_near");
     let mut rows = vec![sdf_sample_near(model, cfg)];
@@ -781,6 +788,6 @@ pub fn run_all(cfg: BenchConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<B
     progress("igtl_round_trip");
     rows.extend(igtl::igtl_round_trip(model, (cfg.session_seconds * 1000.0) as usize)?);
     progress("all_teeth");
-    rows.push(all_teeth(cfg.repetitions < BenchConfig::full().repetitions)?);
+    rows.push(all_teeth(quick)?);
     Ok(rows)
 }

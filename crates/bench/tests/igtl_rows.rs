@@ -3,7 +3,8 @@
 //! asserted (speed goals are `dentsim bench`'s); the counts and values are checked.
 #[test]
 fn igtl_round_trip_rows_measure_both_sides() {
-    let tooth = dentsim_bench::bench_tooth().unwrap();
+    // the tissues' voxel does not matter here; a coarse tooth starts the session sooner
+    let tooth = dentsim_bench::bench_tooth_at(dentsim_bench::QUICK_VOXEL_MM).unwrap();
     let poses: usize = std::env::var("DENTSIM_IGTL_POSES").ok().and_then(|v| v.parse().ok()).unwrap_or(300);
     let rows = dentsim_bench::igtl::igtl_round_trip(&tooth, poses).unwrap();
     for r in &rows {
