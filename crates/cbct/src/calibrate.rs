@@ -159,9 +159,9 @@ fn histogram(vol: &Volume, bins: usize) -> (Vec<f64>, f64, f64, Option<f64>) {
     let (lo, hi) = vol.min_max();
     let (mut lo, hi) = (lo as f64, hi as f64);
     let mut padding = None;
-    let at_min = vol.values.iter().filter(|&&v| v as f64 == lo).count();
+    let at_min = vol.values.par_iter().filter(|&&v| v as f64 == lo).count();
     if at_min * 200 >= vol.values.len() {
-        let next = vol.values.iter().map(|&v| v as f64).filter(|&v| v > lo).fold(f64::INFINITY, f64::min);
+        let next = vol.values.par_iter().map(|&v| v as f64).filter(|&v| v > lo).reduce(|| f64::INFINITY, f64::min);
         // a value set apart by a gap of over a tenth of the range is padding, not air
         if next.is_finite() && next - lo > 0.1 * (hi - lo) {
             padding = Some(lo);
@@ -173,17 +173,32 @@ fn histogram(vol: &Volume, bins: usize) -> (Vec<f64>, f64, f64, Option<f64>) {
     // makes a peak inside the histogram
     let pad = 0.02 * (hi - lo);
     let (lo, hi) = (lo - pad, hi + pad);
-    let mut h = vec![0.0; bins];
     let k = bins as f64 / (hi - lo);
-    for &v in &vol.values {
-        let v = v as f64;
-        if v < lo {
-            continue;
-        }
-        let b = (((v - lo) * k) as usize).min(bins - 1);
-        h[b] += 1.0;
-    }
-    (h, lo, hi, padding)
+    // Counted in parts side by side: whole counts, so the sum is the same in any order.
+    let counts = vol
+        .values
+        .par_chunks(1 << 16)
+        .fold(
+            || vec![0u64; bins],
+            |mut h, part| {
+                for &v in part {
+                    let v = v as f64;
+                    if v < lo {
+                        continue;
+                    }
+                    h[(((v - lo) * k) as usize).min(bins - 1)] += 1;
+                }
+                h
+            },
+        )
+        .reduce(
+            || vec![0u64; bins],
+            |mut a, b| {
+                a.iter_mut().zip(&b).for_each(|(a, b)| *a += b);
+                a
+            },
+        );
+    (counts.into_iter().map(|c| c as f64).collect(), lo, hi, padding)
 }
 
 fn smooth(h: &[f64], sigma: f64) -> Vec<f64> {
@@ -273,6 +288,15 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
         let r = (e - d) / (d - m);
         m < d && d < e && (0.12..=1.2).contains(&r)
     });
+    // The same proposal twice (the order's reading is often one of the pairs) is tested once:
+    // it would score alike and sort next to itself.
+    let mut unique: Vec<[f64; 3]> = Vec::with_capacity(proposals.len());
+    for p in proposals {
+        if !unique.iter().any(|q| q.map(f64::to_bits) == p.map(f64::to_bits)) {
+            unique.push(p);
+        }
+    }
+    let proposals = unique;
     let grid = Coarse::new(vol);
     let mut thresholds: Vec<f64> = proposals.iter().map(|p| 0.5 * (p[0] + p[1])).collect();
     thresholds.sort_by(f64::total_cmp);
@@ -452,18 +476,28 @@ impl Coarse {
         };
         let inside = |i: isize, j: isize, k: isize, c: u8| [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)].iter().all(|&(a, b, g)| at(i + a, j + b, k + g) == Some(c));
         let near_enamel = |i: isize, j: isize, k: isize| (-2..=2).any(|a| (-2..=2).any(|b| (-2..=2).any(|g| at(i + a, j + b, k + g) == Some(2))));
-        let (mut de, mut dd) = (Vec::new(), Vec::new());
-        for k in 0..nz as isize {
-            for j in 0..ny as isize {
-                for i in 0..nx as isize {
-                    let n = i as usize + nx * (j as usize + ny * k as usize);
-                    match class[n] {
-                        2 if inside(i, j, k, 2) => de.push(self.values[n]),
-                        1 if inside(i, j, k, 1) && near_enamel(i, j, k) => dd.push(self.values[n]),
-                        _ => {}
+        // Slab by slab side by side, gathered in the slabs' order.
+        let slabs: Vec<(Vec<f32>, Vec<f32>)> = (0..nz as isize)
+            .into_par_iter()
+            .map(|k| {
+                let (mut de, mut dd) = (Vec::new(), Vec::new());
+                for j in 0..ny as isize {
+                    for i in 0..nx as isize {
+                        let n = i as usize + nx * (j as usize + ny * k as usize);
+                        match class[n] {
+                            2 if inside(i, j, k, 2) => de.push(self.values[n]),
+                            1 if inside(i, j, k, 1) && near_enamel(i, j, k) => dd.push(self.values[n]),
+                            _ => {}
+                        }
                     }
                 }
-            }
+                (de, dd)
+            })
+            .collect();
+        let (mut de, mut dd): (Vec<f32>, Vec<f32>) = (Vec::new(), Vec::new());
+        for (e, d) in slabs {
+            de.extend(e);
+            dd.extend(d);
         }
         if de.len() < 8 || dd.len() < 8 {
             return None;
@@ -500,25 +534,52 @@ impl Coarse {
     /// (an empty pulp chamber, a canal open at the apex by less than that) is not.
     fn outside(&self, t1: f64) -> Vec<bool> {
         let [nx, ny, nz] = self.dims;
-        let medium: Vec<bool> = self.values.iter().map(|&v| v as f64 <= t1).collect();
-        let neighbours = |n: usize| crate::volume::face_neighbours(n, [nx, ny, nz]);
+        let (sy, sz) = (nx, nx * ny);
+        let medium: Vec<bool> = self.values.par_iter().map(|&v| v as f64 <= t1).collect();
+        // Each voxel's face neighbours in the grid, from its (i, j, k): no index divided.
+        let neighbours = move |n: usize, [i, j, k]: [usize; 3]| {
+            [(i > 0).then(|| n - 1), (i + 1 < nx).then(|| n + 1), (j > 0).then(|| n - sy), (j + 1 < ny).then(|| n + sy), (k > 0).then(|| n - sz), (k + 1 < nz).then(|| n + sz)]
+        };
+        let slab_map = |f: &(dyn Fn(usize, [usize; 3]) -> bool + Sync)| -> Vec<bool> {
+            let mut out = vec![false; medium.len()];
+            out.par_chunks_mut(sz).enumerate().for_each(|(k, slab)| {
+                for j in 0..ny {
+                    for i in 0..nx {
+                        let l = i + sy * j;
+                        slab[l] = f(l + sz * k, [i, j, k]);
+                    }
+                }
+            });
+            out
+        };
         // Past the grid's border counts as medium.
-        let wide: Vec<bool> = (0..medium.len()).map(|n| medium[n] && neighbours(n).iter().all(|m| m.map_or(true, |m| medium[m]))).collect();
-        let on_border = |n: usize| neighbours(n).iter().any(Option::is_none);
+        let wide = slab_map(&|n, ijk| medium[n] && neighbours(n, ijk).iter().all(|m| m.map_or(true, |m| medium[m])));
+        let on_border = |[i, j, k]: [usize; 3]| i == 0 || j == 0 || k == 0 || i + 1 == nx || j + 1 == ny || k + 1 == nz;
+        // Reached from the border through wide medium, breadth first (a depth-first stack grows
+        // to most of the medium).
         let mut reached = vec![false; medium.len()];
-        let mut queue: std::collections::VecDeque<usize> = (0..medium.len()).filter(|&n| wide[n] && on_border(n)).collect();
-        for &n in &queue {
-            reached[n] = true;
-        }
-        while let Some(n) = queue.pop_front() {
-            for m in neighbours(n).into_iter().flatten() {
-                if wide[m] && !reached[m] {
-                    reached[m] = true;
-                    queue.push_back(m);
+        let mut queue: std::collections::VecDeque<(usize, [usize; 3])> = std::collections::VecDeque::new();
+        for k in 0..nz {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let n = i + sy * j + sz * k;
+                    if wide[n] && on_border([i, j, k]) {
+                        reached[n] = true;
+                        queue.push_back((n, [i, j, k]));
+                    }
                 }
             }
         }
-        (0..medium.len()).map(|n| medium[n] && (reached[n] || neighbours(n).into_iter().flatten().any(|m| reached[m]))).collect()
+        while let Some((n, [i, j, k])) = queue.pop_front() {
+            let next = [(n.wrapping_sub(1), [i.wrapping_sub(1), j, k]), (n + 1, [i + 1, j, k]), (n.wrapping_sub(sy), [i, j.wrapping_sub(1), k]), (n + sy, [i, j + 1, k]), (n.wrapping_sub(sz), [i, j, k.wrapping_sub(1)]), (n + sz, [i, j, k + 1])];
+            for (m, [a, b, c]) in next {
+                if a < nx && b < ny && c < nz && wide[m] && !reached[m] {
+                    reached[m] = true;
+                    queue.push_back((m, [a, b, c]));
+                }
+            }
+        }
+        slab_map(&|n, ijk| medium[n] && (reached[n] || neighbours(n, ijk).into_iter().flatten().any(|m| reached[m])))
     }
 
     /// Tests a proposal (medium, dentin, enamel): at each 6-neighbour contact of an enamel voxel

@@ -605,24 +605,28 @@ pub fn find_teeth(vol: &Volume, cal: &Calibration) -> Result<Vec<FoundTooth>> {
         }
     }
     let vox = vol.voxel_volume_mm3();
-    let mut teeth: Vec<(usize, FoundTooth)> = Vec::new();
-    for (c, a) in acc.iter().enumerate().skip(1) {
-        if a.hard == 0 || (a.enamel as f64) * vox < MIN_ENAMEL_MM3 {
+    let crowned = |a: &Acc| a.hard > 0 && (a.enamel as f64) * vox >= MIN_ENAMEL_MM3;
+    // Each tooth's voxel nearest its centroid (the first in index order among equals), every
+    // tooth in one pass.
+    let centroids: Vec<[f64; 3]> = acc.iter().map(|a| a.sum.map(|s| s / a.hard as f64)).collect();
+    let mut best = vec![(f64::INFINITY, 0usize); count];
+    for m in 0..n {
+        let c = id[m] as usize;
+        if c == 0 || !crowned(&acc[c]) {
             continue;
         }
-        let centroid = a.sum.map(|s| s / a.hard as f64);
-        // the voxel of this tooth nearest its centroid
-        let mut best = (f64::INFINITY, 0usize);
-        for m in 0..n {
-            if id[m] as usize == c {
-                let p = g.ijk(m);
-                let d2: f64 = (0..3).map(|k| (p[k] as f64 - centroid[k]).powi(2)).sum();
-                if d2 < best.0 {
-                    best = (d2, m);
-                }
-            }
+        let p = g.ijk(m);
+        let d2: f64 = (0..3).map(|k| (p[k] as f64 - centroids[c][k]).powi(2)).sum();
+        if d2 < best[c].0 {
+            best[c] = (d2, m);
         }
-        let p = g.ijk(best.1);
+    }
+    let mut teeth: Vec<(usize, FoundTooth)> = Vec::new();
+    for (c, a) in acc.iter().enumerate().skip(1) {
+        if !crowned(a) {
+            continue;
+        }
+        let p = g.ijk(best[c].1);
         let mut min = [f64::INFINITY; 3];
         let mut max = [f64::NEG_INFINITY; 3];
         for corner in 0..8 {

@@ -145,7 +145,10 @@ impl Volume {
         LabelVolume { dims: self.dims, spacing: self.spacing, origin: self.origin, direction: self.direction, labels: vec![0; self.len()] }
     }
     pub fn min_max(&self) -> (f32, f32) {
-        self.values.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), &v| (a.min(v), b.max(v)))
+        use rayon::prelude::*;
+        let lo = self.values.par_iter().copied().reduce(|| f32::INFINITY, f32::min);
+        let hi = self.values.par_iter().copied().reduce(|| f32::NEG_INFINITY, f32::max);
+        (lo, hi)
     }
 }
 

@@ -412,7 +412,8 @@ pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32
         None
     };
     const NONE: u32 = u32::MAX;
-    let seeds: Vec<Vec<(usize, DVec3)>> = (0..leaves.len())
+    // Each seed's surface point and the surface's normal there (the leaves side by side).
+    let seeds: Vec<Vec<(usize, DVec3, DVec3)>> = (0..leaves.len())
         .into_par_iter()
         .map(|l| {
             let mut out = Vec::new();
@@ -436,7 +437,8 @@ pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32
                     let s = ((iso - a) / (b - a)).clamp(0.0, 1.0);
                     p + (voxel_of(m, k).as_dvec3() * h - p) * s
                 });
-                out.push((n, foot));
+                let normal = (gradient_to_world * field.sample(kernel, inverse * (foot - t)).1).normalize_or_zero();
+                out.push((n, foot, normal));
             }
             out
         })
@@ -445,10 +447,10 @@ pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32
     let mut normals: Vec<DVec3> = Vec::new();
     let mut nearest: Vec<Vec<u32>> = vec![vec![NONE; LEAF_VOXELS]; leaves.len()];
     for (l, list) in seeds.into_iter().enumerate() {
-        for (n, foot) in list {
+        for (n, foot, normal) in list {
             nearest[l][n] = feet.len() as u32;
             feet.push(foot);
-            normals.push((gradient_to_world * field.sample(kernel, inverse * (foot - t)).1).normalize_or_zero());
+            normals.push(normal);
         }
     }
 
