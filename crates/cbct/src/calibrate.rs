@@ -349,7 +349,7 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
     let found = bodies(&found, d, e, &grid);
     let layered = from_layering(&found, padding, d, e);
     let by_order = match_in_order(&h, lo, bw, &found);
-    let outside_of = |c: &Calibration| -> Vec<(String, f64)> { OUTSIDE.iter().filter(|l| c.measured.iter().any(|m| m == l.name())).map(|l| (l.name().to_string(), c.peak(*l))).collect() };
+    let outside_of = |c: &Calibration| -> Vec<(Label, f64)> { OUTSIDE.into_iter().filter(|l| c.measured.iter().any(|m| m == l.name())).map(|l| (l, c.peak(l))).collect() };
     let agrees = by_order.filter(|c| (c.peak(Label::Dentin) - d).abs() <= tol && (c.peak(Label::Enamel) - e).abs() <= tol && outside_of(c) == outside_of(&layered));
     let mut cal = agrees.unwrap_or(layered);
     cal.confidence = confidence;
@@ -388,7 +388,7 @@ fn bodies(found: &[Peak], d: f64, e: f64, grid: &Coarse) -> Vec<Peak> {
         let p = lower[i];
         let lo = if i == 0 { f64::NEG_INFINITY } else { 0.5 * (lower[i - 1].grey + p.grey) };
         let hi = lower.get(i + 1).map_or(0.5 * (p.grey + d), |q| 0.5 * (p.grey + q.grey));
-        p.count >= medium || (i == 0 && grid.border_count(lo, hi) > 0) || grid.body_mm3(lo, hi) >= MIN_BODY_MM3
+        p.count >= medium || (i == 0 && grid.reaches_border(lo, hi)) || grid.body_mm3(lo, hi) >= MIN_BODY_MM3
     };
     let kept: Vec<bool> = (0..lower.len()).map(body).collect();
     let mut lower_kept = kept.into_iter();
@@ -520,13 +520,18 @@ impl Coarse {
         count as f64 * self.spacing.iter().product::<f64>()
     }
 
-    /// Voxels on the grid's border with grey in `lo..hi`.
-    fn border_count(&self, lo: f64, hi: f64) -> usize {
+    /// Whether a voxel on the grid's border has grey in `lo..hi` (the six faces only).
+    fn reaches_border(&self, lo: f64, hi: f64) -> bool {
         let [nx, ny, nz] = self.dims;
-        (0..self.values.len())
-            .into_par_iter()
-            .filter(|&n| (lo..hi).contains(&f64::from(self.values[n])) && crate::volume::face_neighbours(n, [nx, ny, nz]).iter().any(Option::is_none))
-            .count()
+        if self.values.is_empty() {
+            return false;
+        }
+        let within = |i: usize, j: usize, k: usize| (lo..hi).contains(&f64::from(self.values[i + nx * (j + ny * k)]));
+        let face = |a: usize, b: usize, f: &dyn Fn(usize, usize) -> bool| (0..a).any(|u| (0..b).any(|v| f(u, v)));
+        let (x1, y1, z1) = (nx - 1, ny - 1, nz - 1);
+        face(ny, nz, &|j, k| within(0, j, k) || within(x1, j, k))
+            || face(nx, nz, &|i, k| within(i, 0, k) || within(i, y1, k))
+            || face(nx, ny, &|i, j| within(i, j, 0) || within(i, j, z1))
     }
 
     /// The medium (grey at most `t1`) around the tooth: reached from the grid's border through

@@ -146,9 +146,8 @@ impl Volume {
     }
     pub fn min_max(&self) -> (f32, f32) {
         use rayon::prelude::*;
-        let lo = self.values.par_iter().copied().reduce(|| f32::INFINITY, f32::min);
-        let hi = self.values.par_iter().copied().reduce(|| f32::NEG_INFINITY, f32::max);
-        (lo, hi)
+        let none = || (f32::INFINITY, f32::NEG_INFINITY);
+        self.values.par_iter().fold(none, |(a, b), &v| (a.min(v), b.max(v))).reduce(none, |(a, b), (c, d)| (a.min(c), b.max(d)))
     }
 }
 
