@@ -27,6 +27,7 @@
 
 use crate::Label;
 use crate::error::{Error, Result};
+use crate::mask;
 use crate::volume::Volume;
 use serde::{Deserialize, Serialize};
 use rayon::prelude::*;
@@ -124,10 +125,27 @@ impl Calibration {
 
     /// Background class of a grey value (air … enamel, metal) by the thresholds.
     pub fn classify(&self, v: f64) -> Label {
+        self.classifier().classify(v)
+    }
+
+    /// [`Self::classify`] with the thresholds' names read once, for a scan's every voxel.
+    pub fn classifier(&self) -> Classifier {
+        Classifier { steps: self.thresholds.iter().map(|t| (t.value, Label::from_name(&t.above))).collect() }
+    }
+}
+
+/// The calibration's thresholds as (value, class above it); a name no label has keeps the class
+/// below, as [`Calibration::classify`] reads it.
+pub struct Classifier {
+    steps: Vec<(f64, Option<Label>)>,
+}
+
+impl Classifier {
+    pub fn classify(&self, v: f64) -> Label {
         let mut l = Label::Air;
-        for t in &self.thresholds {
-            if v > t.value {
-                l = Label::from_name(&t.above).unwrap_or(l);
+        for &(value, above) in &self.steps {
+            if v > value {
+                l = above.unwrap_or(l);
             }
         }
         l
@@ -538,53 +556,13 @@ impl Coarse {
     /// medium at least three voxels wide, then grown back by a voxel. Medium the tooth encloses
     /// (an empty pulp chamber, a canal open at the apex by less than that) is not.
     fn outside(&self, t1: f64) -> Vec<bool> {
-        let [nx, ny, nz] = self.dims;
-        let (sy, sz) = (nx, nx * ny);
         let medium: Vec<bool> = self.values.par_iter().map(|&v| v as f64 <= t1).collect();
-        // Each voxel's face neighbours in the grid, from its (i, j, k): no index divided.
-        let neighbours = move |n: usize, [i, j, k]: [usize; 3]| {
-            [(i > 0).then(|| n - 1), (i + 1 < nx).then(|| n + 1), (j > 0).then(|| n - sy), (j + 1 < ny).then(|| n + sy), (k > 0).then(|| n - sz), (k + 1 < nz).then(|| n + sz)]
-        };
-        let slab_map = |f: &(dyn Fn(usize, [usize; 3]) -> bool + Sync)| -> Vec<bool> {
-            let mut out = vec![false; medium.len()];
-            out.par_chunks_mut(sz).enumerate().for_each(|(k, slab)| {
-                for j in 0..ny {
-                    for i in 0..nx {
-                        let l = i + sy * j;
-                        slab[l] = f(l + sz * k, [i, j, k]);
-                    }
-                }
-            });
-            out
-        };
         // Past the grid's border counts as medium.
-        let wide = slab_map(&|n, ijk| medium[n] && neighbours(n, ijk).iter().all(|m| m.map_or(true, |m| medium[m])));
-        let on_border = |[i, j, k]: [usize; 3]| i == 0 || j == 0 || k == 0 || i + 1 == nx || j + 1 == ny || k + 1 == nz;
-        // Reached from the border through wide medium, breadth first (a depth-first stack grows
-        // to most of the medium).
-        let mut reached = vec![false; medium.len()];
-        let mut queue: std::collections::VecDeque<(usize, [usize; 3])> = std::collections::VecDeque::new();
-        for k in 0..nz {
-            for j in 0..ny {
-                for i in 0..nx {
-                    let n = i + sy * j + sz * k;
-                    if wide[n] && on_border([i, j, k]) {
-                        reached[n] = true;
-                        queue.push_back((n, [i, j, k]));
-                    }
-                }
-            }
-        }
-        while let Some((n, [i, j, k])) = queue.pop_front() {
-            let next = [(n.wrapping_sub(1), [i.wrapping_sub(1), j, k]), (n + 1, [i + 1, j, k]), (n.wrapping_sub(sy), [i, j.wrapping_sub(1), k]), (n + sy, [i, j + 1, k]), (n.wrapping_sub(sz), [i, j, k.wrapping_sub(1)]), (n + sz, [i, j, k + 1])];
-            for (m, [a, b, c]) in next {
-                if a < nx && b < ny && c < nz && wide[m] && !reached[m] {
-                    reached[m] = true;
-                    queue.push_back((m, [a, b, c]));
-                }
-            }
-        }
-        slab_map(&|n, ijk| medium[n] && (reached[n] || neighbours(n, ijk).into_iter().flatten().any(|m| reached[m])))
+        let wide = mask::neighbour_map(self.dims, &medium, true, |m, near| m && near.iter().all(|&v| v));
+        let reached = mask::flood_from_border(self.dims, &wide);
+        let mut outside = mask::neighbour_map(self.dims, &reached, false, |r, near| r || near.iter().any(|&v| v));
+        outside.par_iter_mut().zip(&medium).for_each(|(o, &m)| *o &= m);
+        outside
     }
 
     /// Tests a proposal (medium, dentin, enamel): at each 6-neighbour contact of an enamel voxel
@@ -599,8 +577,6 @@ impl Coarse {
     /// `outsides` holds [`Self::outside`] by its threshold (proposals sharing a medium and a
     /// dentin share it; its flood is serial, so it is made once for each).
     fn layering(&self, proposal: [f64; 3], outsides: &[(f64, Vec<bool>)]) -> Layering {
-        let all = vec![true; self.values.len()];
-        let a = self.layering_with(proposal, &all);
         let t1 = 0.5 * (proposal[0] + proposal[1]);
         let made;
         let outside = match outsides.iter().find(|(t, _)| *t == t1) {
@@ -610,7 +586,7 @@ impl Coarse {
                 &made
             }
         };
-        let b = self.layering_with(proposal, outside);
+        let [a, b] = self.layerings(proposal, outside);
         if b.score() > a.score() {
             b
         } else {
@@ -618,11 +594,14 @@ impl Coarse {
         }
     }
 
-    fn layering_with(&self, [m, d, e]: [f64; 3], outside: &[bool]) -> Layering {
+    /// Both readings of [`Self::layering`] in one pass over the grid: every medium voxel as the
+    /// medium, and only the `outside` one.
+    fn layerings(&self, [m, d, e]: [f64; 3], outside: &[bool]) -> [Layering; 2] {
         let (t1, t2) = (0.5 * (m + d), 0.5 * (d + e));
         let [nx, ny, nz] = self.dims;
         // 0 the medium around the tooth, 1 dentin, 2 enamel, 3 medium enclosed by the tooth:
-        // walks go on through it, and it is no surface.
+        // the second reading's walks go on through it, and it is no surface; the first's see
+        // medium.
         let classes: Vec<u8> = self
             .values
             .par_iter()
@@ -642,13 +621,19 @@ impl Coarse {
                 }
             })
             .collect();
-        let at = |i: [isize; 3]| -> Option<u8> { ((0..3).all(|c| i[c] >= 0 && (i[c] as usize) < self.dims[c])).then(|| classes[i[0] as usize + nx * (i[1] as usize + ny * i[2] as usize)]) };
-        let walk = |from: [isize; 3], axis: usize, dir: isize| -> f64 {
+        // The class of a voxel in a reading (0: all medium; 1: the outside only).
+        let at = |i: [isize; 3], reading: usize| -> Option<u8> {
+            ((0..3).all(|c| i[c] >= 0 && (i[c] as usize) < self.dims[c])).then(|| match classes[i[0] as usize + nx * (i[1] as usize + ny * i[2] as usize)] {
+                3 if reading == 0 => 0,
+                c => c,
+            })
+        };
+        let walk = |from: [isize; 3], axis: usize, dir: isize, reading: usize| -> f64 {
             let cap = (4.0 / self.spacing[axis]).ceil() as isize;
             let mut p = from;
             for s in 1..=cap {
                 p[axis] += dir;
-                match at(p) {
+                match at(p, reading) {
                     Some(0) | None => return s as f64 * self.spacing[axis],
                     _ => {}
                 }
@@ -660,70 +645,75 @@ impl Coarse {
             let mut p = from;
             (0..n).all(|_| {
                 p[axis] += dir;
-                at(p) == Some(1)
+                at(p, 0) == Some(1)
             })
         };
+        let add = |a: [Layering; 2], b: [Layering; 2]| [0, 1].map(|r| a[r].plus(&b[r]));
         (0..nz)
             .into_par_iter()
             .map(|k| {
-                let mut l = Layering::default();
+                let mut out = [Layering::default(); 2];
                 for j in 0..ny {
                     for i in 0..nx {
                         let p = [i as isize, j as isize, k as isize];
-                        if at(p) == Some(1) {
-                            // dentin facing the medium with ≥ 1 mm of dentin behind it: a root
+                        let class = classes[i + nx * (j + ny * k)];
+                        if class != 1 && class != 2 {
+                            continue;
+                        }
+                        for (reading, l) in out.iter_mut().enumerate() {
+                            if class == 1 {
+                                // dentin facing the medium with ≥ 1 mm of dentin behind it: a root
+                                for axis in 0..3 {
+                                    for dir in [-1isize, 1] {
+                                        let mut q = p;
+                                        q[axis] += dir;
+                                        if at(q, reading) == Some(0) && thick(p, axis, -dir) {
+                                            l.bare += 1;
+                                        }
+                                    }
+                                }
+                                continue;
+                            }
+                            let mut on_surface = false;
                             for axis in 0..3 {
                                 for dir in [-1isize, 1] {
                                     let mut q = p;
                                     q[axis] += dir;
-                                    if at(q) == Some(0) && thick(p, axis, -dir) {
-                                        l.bare += 1;
+                                    match at(q, reading) {
+                                        Some(2) => {}
+                                        Some(1) => {
+                                            on_surface = true;
+                                            let touches_medium = (0..3).any(|a| {
+                                                [-1isize, 1].iter().any(|&s| {
+                                                    let mut r = q;
+                                                    r[a] += s;
+                                                    at(r, reading) == Some(0)
+                                                })
+                                            });
+                                            if touches_medium {
+                                                continue;
+                                            }
+                                            let (de, dd) = (walk(p, axis, -dir, reading), walk(q, axis, dir, reading));
+                                            let h = 0.5 * self.spacing[axis];
+                                            if dd > de + h {
+                                                l.deeper += 1;
+                                            } else if de > dd + h {
+                                                l.shallower += 1;
+                                            } else {
+                                                l.level += 1;
+                                            }
+                                        }
+                                        _ => on_surface = true,
                                     }
                                 }
                             }
+                            l.surface += on_surface as usize;
                         }
-                        if at(p) != Some(2) {
-                            continue;
-                        }
-                        let mut on_surface = false;
-                        for axis in 0..3 {
-                            for dir in [-1isize, 1] {
-                                let mut q = p;
-                                q[axis] += dir;
-                                match at(q) {
-                                    Some(2) => {}
-                                    Some(1) => {
-                                        on_surface = true;
-                                        let touches_medium = (0..3).any(|a| {
-                                            [-1isize, 1].iter().any(|&s| {
-                                                let mut r = q;
-                                                r[a] += s;
-                                                at(r) == Some(0)
-                                            })
-                                        });
-                                        if touches_medium {
-                                            continue;
-                                        }
-                                        let (de, dd) = (walk(p, axis, -dir), walk(q, axis, dir));
-                                        let h = 0.5 * self.spacing[axis];
-                                        if dd > de + h {
-                                            l.deeper += 1;
-                                        } else if de > dd + h {
-                                            l.shallower += 1;
-                                        } else {
-                                            l.level += 1;
-                                        }
-                                    }
-                                    _ => on_surface = true,
-                                }
-                            }
-                        }
-                        l.surface += on_surface as usize;
                     }
                 }
-                l
+                out
             })
-            .reduce(Layering::default, |a, b| Layering { deeper: a.deeper + b.deeper, shallower: a.shallower + b.shallower, level: a.level + b.level, surface: a.surface + b.surface, bare: a.bare + b.bare })
+            .reduce(|| [Layering::default(); 2], add)
     }
 }
 
@@ -742,6 +732,10 @@ struct Layering {
 }
 
 impl Layering {
+    fn plus(&self, o: &Layering) -> Layering {
+        Layering { deeper: self.deeper + o.deeper, shallower: self.shallower + o.shallower, level: self.level + o.level, surface: self.surface + o.surface, bare: self.bare + o.bare }
+    }
+
     fn score(&self) -> f64 {
         let roots = (self.bare as f64 / (0.1 * self.surface.max(1) as f64)).min(1.0);
         roots * (self.deeper as f64 - self.shallower as f64) / self.surface.max(1) as f64

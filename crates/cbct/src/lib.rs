@@ -7,6 +7,7 @@ pub mod canal;
 pub mod dicom;
 mod dicom_lengths;
 pub mod error;
+mod mask;
 pub mod metaimage;
 pub mod nifti;
 pub mod partial_volume;

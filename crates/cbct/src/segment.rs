@@ -24,6 +24,7 @@ use crate::error::{Error, Result};
 use crate::partial_volume::distance_mm;
 use crate::volume::{LabelVolume, Volume};
 use rayon::prelude::*;
+use crate::mask::{components, flood, neighbour_map};
 use std::collections::VecDeque;
 
 /// Which tooth to segment: FDI number (ISO 3950) and a point inside it or a box around it (LPS mm).
@@ -100,25 +101,17 @@ impl Grid {
 
 /// One 6-neighbour erosion (`grow = false`) or dilation (`grow = true`) step.
 fn morph(g: &Grid, m: &[bool], grow: bool) -> Vec<bool> {
-    let mut out = vec![false; m.len()];
-    out.par_iter_mut().enumerate().for_each(|(n, o)| {
-        let mut nb = [0usize; 6];
-        let c = g.nb6(n, &mut nb);
-        *o = if grow { m[n] || nb[..c].iter().any(|&q| m[q]) } else { m[n] && c == 6 && nb.iter().all(|&q| m[q]) };
-    });
-    out
+    if grow {
+        neighbour_map(g.d, m, false, |own, near| own || near.iter().any(|&v| v))
+    } else {
+        neighbour_map(g.d, m, false, |own, near| own && near.iter().all(|&v| v))
+    }
 }
 
 /// One 6-neighbour erosion of `m` inside a box whose outside counts as set: a mask of what lies
 /// outside the tooth stays open at the box's faces.
 fn erode_in_box(g: &Grid, m: &[bool]) -> Vec<bool> {
-    let mut out = vec![false; m.len()];
-    out.par_iter_mut().enumerate().for_each(|(n, o)| {
-        let mut nb = [0usize; 6];
-        let c = g.nb6(n, &mut nb);
-        *o = m[n] && nb[..c].iter().all(|&q| m[q]);
-    });
-    out
+    neighbour_map(g.d, m, true, |own, near| own && near.iter().all(|&v| v))
 }
 
 /// A box of a grid (inclusive corners) as a grid of its own.
@@ -323,7 +316,7 @@ fn open_lesions(bx: &BoxGrid, enamel: &[bool], near_enamel: &[bool], vals: &[f32
     for l in (0..sn).filter(|&l| pocket[l]) {
         pockets[sub.global(l)] = true;
     }
-    let (id, sizes) = components(&sub.g, &pocket);
+    let (id, sizes) = components(sub.g.d, &pocket);
     let stats = cavity_stats(&sub.g, &id, sizes.len(), &pocket, &sub.gather(near_enamel).into_iter().map(|b| if b { 0.0 } else { f32::INFINITY }).collect::<Vec<f32>>(), &svals, spacing);
     let h = h as f32;
     let lesion: Vec<bool> = (0..sn).map(|l| id[l] != 0 && stats[id[l] as usize].has_body(h) && stats[id[l] as usize].at_surface()).collect();
@@ -411,57 +404,6 @@ fn clean_metal(g: &Grid, vol: &Volume, labels: &mut [u8]) {
     }
 }
 
-/// Flood fill (6-connected) over `allowed` from `starts`.
-fn flood(g: &Grid, allowed: &[bool], starts: impl IntoIterator<Item = usize>) -> Vec<bool> {
-    let mut seen = vec![false; allowed.len()];
-    let mut q = VecDeque::new();
-    for s in starts {
-        if allowed[s] && !seen[s] {
-            seen[s] = true;
-            q.push_back(s);
-        }
-    }
-    let mut nb = [0usize; 6];
-    while let Some(n) = q.pop_front() {
-        let c = g.nb6(n, &mut nb);
-        for &m in &nb[..c] {
-            if allowed[m] && !seen[m] {
-                seen[m] = true;
-                q.push_back(m);
-            }
-        }
-    }
-    seen
-}
-
-/// Connected components (6-connected) of `m`: component id per voxel (0 = none) and sizes.
-fn components(g: &Grid, m: &[bool]) -> (Vec<u32>, Vec<usize>) {
-    let mut id = vec![0u32; m.len()];
-    let mut sizes = vec![0usize];
-    let mut q = VecDeque::new();
-    let mut nb = [0usize; 6];
-    for s in 0..m.len() {
-        if !m[s] || id[s] != 0 {
-            continue;
-        }
-        let c = sizes.len() as u32;
-        sizes.push(0);
-        id[s] = c;
-        q.push_back(s);
-        while let Some(n) = q.pop_front() {
-            sizes[c as usize] += 1;
-            let k = g.nb6(n, &mut nb);
-            for &t in &nb[..k] {
-                if m[t] && id[t] == 0 {
-                    id[t] = c;
-                    q.push_back(t);
-                }
-            }
-        }
-    }
-    (id, sizes)
-}
-
 fn median(v: &mut [f32]) -> f32 {
     let m = v.len() / 2;
     *v.select_nth_unstable_by(m, |a, b| a.total_cmp(b)).1
@@ -522,7 +464,7 @@ fn tooth_markers(g: &Grid, vol: &Volume, core: &[bool], opts: &SegmentOptions) -
     for _ in 0..r {
         eroded = morph(g, &eroded, false);
     }
-    let (mut id, sizes) = components(g, &eroded);
+    let (mut id, sizes) = components(g.d, &eroded);
     // Small markers (thin root walls cut apart by the erosion, noise) would steal parts of a
     // tooth: drop them, and let the big ones regrow over their voxels.
     let vox = vol.spacing[0] * vol.spacing[1] * vol.spacing[2];
@@ -574,7 +516,8 @@ pub fn find_teeth(vol: &Volume, cal: &Calibration) -> Result<Vec<FoundTooth>> {
     if n == 0 || vol.values.len() != n {
         return Err(Error::invalid("volume", "empty or inconsistent volume"));
     }
-    let mut labels: Vec<u8> = vol.values.par_iter().map(|&v| cal.classify(v as f64) as u8).collect();
+    let classifier = cal.classifier();
+    let mut labels: Vec<u8> = vol.values.par_iter().map(|&v| classifier.classify(v as f64) as u8).collect();
     clean_metal(&g, vol, &mut labels);
     let core: Vec<bool> = labels.par_iter().map(|&l| l == Label::Dentin as u8 || l == Label::Enamel as u8).collect();
     let opts = SegmentOptions::default();
@@ -657,7 +600,8 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
         return Err(Error::invalid("volume", "empty or inconsistent volume"));
     }
     let mut out = vol.label_volume();
-    out.labels.par_iter_mut().zip(vol.values.par_iter()).for_each(|(l, &v)| *l = cal.classify(v as f64) as u8);
+    let classifier = cal.classifier();
+    out.labels.par_iter_mut().zip(vol.values.par_iter()).for_each(|(l, &v)| *l = classifier.classify(v as f64) as u8);
     clean_metal(&g, vol, &mut out.labels);
     let is_hard = |l: u8| l == Label::Dentin as u8 || l == Label::Enamel as u8;
     let mut core: Vec<bool> = out.labels.par_iter().map(|&l| is_hard(l)).collect();
@@ -807,7 +751,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     let bmetal: Vec<bool> = (0..bn).map(|l| out.labels[bx.global(l)] == Label::Metal as u8).collect();
     let open: Vec<bool> = (0..bn).map(|l| !(btooth[l] || closed[l] || bmetal[l])).collect();
     let mut enclosed = {
-        let outside = flood(&bx.g, &open, (0..bn).filter(|&l| open[l] && bx.on_face(l)));
+        let outside = flood(bx.g.d, &open, (0..bn).filter(|&l| open[l] && bx.on_face(l)));
         (0..bn).map(|l| open[l] && !outside[l]).collect::<Vec<bool>>()
     };
     // The outside also ends at passages at most 2 voxels wide: a canal behind an apical wall
@@ -816,7 +760,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     // thinner pockets (the bottoms of fissures) are outside.
     let behind_neck = {
         let core = erode_in_box(&bx.g, &open);
-        let reach = flood(&bx.g, &core, (0..bn).filter(|&l| core[l] && bx.on_face(l)));
+        let reach = flood(bx.g.d, &core, (0..bn).filter(|&l| core[l] && bx.on_face(l)));
         let wide = morph(&bx.g, &reach, true);
         (0..bn).map(|l| open[l] && !wide[l]).collect::<Vec<bool>>()
     };
@@ -836,7 +780,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     // (Only canals that reach a cavity the hard-tissue threshold found, the pulp chamber: a
     // dark sheet of the blur's mix between roots close together joins none.)
     let canal = {
-        let (id, sizes) = components(&bx.g, &(0..bn).map(|l| canal[l] || behind_neck[l]).collect::<Vec<bool>>());
+        let (id, sizes) = components(bx.g.d, &(0..bn).map(|l| canal[l] || behind_neck[l]).collect::<Vec<bool>>());
         let mut joins = vec![false; sizes.len()];
         for l in (0..bn).filter(|&l| behind_neck[l]) {
             joins[id[l] as usize] = true;
@@ -863,7 +807,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     // they were taken as a lesion.)
     let to_surface = distance_mm(bx.g.d, vol.spacing, &(0..bn).map(|l| open[l] && !candidates[l] && !pockets[l] && near_enamel[l]).collect::<Vec<bool>>());
     let (bid, nc) = {
-        let (id, sizes) = components(&bx.g, &candidates);
+        let (id, sizes) = components(bx.g.d, &candidates);
         (id, sizes.len())
     };
     let stats = cavity_stats(&bx.g, &bid, nc, &candidates, &to_surface, &bvals, vol.spacing);

@@ -1,0 +1,204 @@
+//! Masks over a voxel grid (x fastest): flood fills and face-neighbour maps. Calibration floods
+//! most of a scan's coarse grid several times and segmentation the tooth's box, so both work a
+//! row at a time: a queue of single voxels costs a push, a pop and index divisions per voxel; a
+//! run costs them once and its voxels are one linear scan. The set a flood reaches does not
+//! depend on the order.
+
+use rayon::prelude::*;
+
+/// Each voxel's `f(own, [−x, +x, −y, +y, −z, +z] neighbours)` over mask `of`, with `beyond`
+/// past the grid's border; slabs side by side, rows scanned with no index divided.
+pub fn neighbour_map(dims: [usize; 3], of: &[bool], beyond: bool, f: impl Fn(bool, [bool; 6]) -> bool + Sync) -> Vec<bool> {
+    let [nx, ny, nz] = dims;
+    let (sy, sz) = (nx, nx * ny);
+    let mut out = vec![false; of.len()];
+    if of.is_empty() {
+        return out;
+    }
+    out.par_chunks_mut(sz).enumerate().for_each(|(k, slab)| {
+        for j in 0..ny {
+            let row = sy * j + sz * k;
+            for i in 0..nx {
+                let n = row + i;
+                let near = [
+                    if i > 0 { of[n - 1] } else { beyond },
+                    if i + 1 < nx { of[n + 1] } else { beyond },
+                    if j > 0 { of[n - sy] } else { beyond },
+                    if j + 1 < ny { of[n + sy] } else { beyond },
+                    if k > 0 { of[n - sz] } else { beyond },
+                    if k + 1 < nz { of[n + sz] } else { beyond },
+                ];
+                slab[sy * j + i] = f(of[n], near);
+            }
+        }
+    });
+    out
+}
+
+/// Fills from `start` over voxels `allowed` and not yet `seen`, marking them seen; calls
+/// `on_run(first, last)` for each row run filled (inclusive linear indices). `stack` is scratch.
+pub fn fill_from(dims: [usize; 3], allowed: &[bool], seen: &mut [bool], start: usize, stack: &mut Vec<usize>, mut on_run: impl FnMut(usize, usize)) {
+    let [nx, ny, nz] = dims;
+    let (sy, sz) = (nx, nx * ny);
+    stack.clear();
+    stack.push(start);
+    while let Some(s) = stack.pop() {
+        if !allowed[s] || seen[s] {
+            continue;
+        }
+        let row = s / nx;
+        let (row_start, row_end) = (row * nx, row * nx + nx - 1);
+        let (mut a, mut b) = (s, s);
+        while a > row_start && allowed[a - 1] && !seen[a - 1] {
+            a -= 1;
+        }
+        while b < row_end && allowed[b + 1] && !seen[b + 1] {
+            b += 1;
+        }
+        seen[a..=b].iter_mut().for_each(|v| *v = true);
+        on_run(a, b);
+        let (j, k) = (row % ny, row / ny);
+        let rows = [(j > 0).then(|| a - sy), (j + 1 < ny).then(|| a + sy), (k > 0).then(|| a - sz), (k + 1 < nz).then(|| a + sz)];
+        // One seed per fillable stretch of each neighbouring row under the run.
+        for first in rows.into_iter().flatten() {
+            let mut open = false;
+            for m in first..=first + (b - a) {
+                let fillable = allowed[m] && !seen[m];
+                if fillable && !open {
+                    stack.push(m);
+                }
+                open = fillable;
+            }
+        }
+    }
+}
+
+/// The voxels of `allowed` connected to any of `starts` (6-connected).
+pub fn flood(dims: [usize; 3], allowed: &[bool], starts: impl IntoIterator<Item = usize>) -> Vec<bool> {
+    let mut seen = vec![false; allowed.len()];
+    let mut stack = Vec::new();
+    for s in starts {
+        fill_from(dims, allowed, &mut seen, s, &mut stack, |_, _| {});
+    }
+    seen
+}
+
+/// The voxels of `allowed` connected to the grid's border (6-connected).
+pub fn flood_from_border(dims: [usize; 3], allowed: &[bool]) -> Vec<bool> {
+    let [nx, ny, nz] = dims;
+    let at = move |i: usize, j: usize, k: usize| i + nx * (j + ny * k);
+    // The six faces (voxels on edges come twice; the second finds them seen).
+    let x_faces = (0..nz).flat_map(move |k| (0..ny).flat_map(move |j| [at(0, j, k), at(nx - 1, j, k)]));
+    let y_faces = (0..nz).flat_map(move |k| (0..nx).flat_map(move |i| [at(i, 0, k), at(i, ny - 1, k)]));
+    let z_faces = (0..ny).flat_map(move |j| (0..nx).flat_map(move |i| [at(i, j, 0), at(i, j, nz - 1)]));
+    let starts = x_faces.chain(y_faces).chain(z_faces).filter(|&n| allowed[n]);
+    flood(dims, allowed, starts)
+}
+
+/// Connected components (6-connected) of `m`: the component's id per voxel (0 = none, ids in
+/// the order of each component's first voxel) and each id's size (index 0 unused).
+pub fn components(dims: [usize; 3], m: &[bool]) -> (Vec<u32>, Vec<usize>) {
+    let mut id = vec![0u32; m.len()];
+    let mut sizes = vec![0usize];
+    let mut seen = vec![false; m.len()];
+    let mut stack = Vec::new();
+    for s in 0..m.len() {
+        if !m[s] || seen[s] {
+            continue;
+        }
+        let c = sizes.len() as u32;
+        let mut size = 0;
+        fill_from(dims, m, &mut seen, s, &mut stack, |a, b| {
+            id[a..=b].iter_mut().for_each(|v| *v = c);
+            size += b - a + 1;
+        });
+        sizes.push(size);
+    }
+    (id, sizes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::collections::VecDeque;
+
+    fn neighbours(n: usize, [nx, ny, nz]: [usize; 3]) -> Vec<usize> {
+        let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
+        let mut out = Vec::new();
+        if i > 0 { out.push(n - 1) }
+        if i + 1 < nx { out.push(n + 1) }
+        if j > 0 { out.push(n - nx) }
+        if j + 1 < ny { out.push(n + nx) }
+        if k > 0 { out.push(n - nx * ny) }
+        if k + 1 < nz { out.push(n + nx * ny) }
+        out
+    }
+
+    /// Components by a voxel-at-a-time breadth-first search, the plain definition.
+    fn components_by_queue(dims: [usize; 3], m: &[bool]) -> (Vec<u32>, Vec<usize>) {
+        let mut id = vec![0u32; m.len()];
+        let mut sizes = vec![0usize];
+        for s in 0..m.len() {
+            if !m[s] || id[s] != 0 {
+                continue;
+            }
+            let c = sizes.len() as u32;
+            sizes.push(0);
+            id[s] = c;
+            let mut q = VecDeque::from([s]);
+            while let Some(n) = q.pop_front() {
+                sizes[c as usize] += 1;
+                for t in neighbours(n, dims) {
+                    if m[t] && id[t] == 0 {
+                        id[t] = c;
+                        q.push_back(t);
+                    }
+                }
+            }
+        }
+        (id, sizes)
+    }
+
+    /// Random masks of every density, in grids with sides of 1 and thin slabs among them.
+    fn masks() -> Vec<([usize; 3], Vec<bool>)> {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut out = Vec::new();
+        for dims in [[1, 1, 1], [7, 1, 1], [1, 9, 1], [1, 1, 6], [5, 6, 7], [13, 3, 1], [17, 11, 9], [32, 24, 16]] {
+            for density in [10u64, 35, 50, 60, 75, 95] {
+                let n = dims.iter().product();
+                out.push((dims, (0..n).map(|_| next() % 100 < density).collect()));
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn runs_find_the_components_a_voxel_queue_finds() {
+        for (dims, m) in masks() {
+            assert_eq!(components(dims, &m), components_by_queue(dims, &m), "{dims:?}");
+        }
+    }
+
+    #[test]
+    fn the_border_flood_reaches_the_components_touching_the_border() {
+        for (dims, m) in masks() {
+            let (id, _) = components_by_queue(dims, &m);
+            let [nx, ny, nz] = dims;
+            let mut touching = vec![false; id.len() + 1];
+            for n in 0..m.len() {
+                let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
+                if m[n] && (i == 0 || j == 0 || k == 0 || i + 1 == nx || j + 1 == ny || k + 1 == nz) {
+                    touching[id[n] as usize] = true;
+                }
+            }
+            let expected: Vec<bool> = (0..m.len()).map(|n| m[n] && touching[id[n] as usize]).collect();
+            assert_eq!(flood_from_border(dims, &m), expected, "{dims:?}");
+        }
+    }
+}
