@@ -99,17 +99,19 @@ impl GridField<'_> {
             w[c] = cubic_weights(t);
             d[c] = [-0.5 * s * s, 0.5 * (3.0 * t * t - 4.0 * t), 0.5 * (-3.0 * t * t + 2.0 * t + 1.0), 0.5 * t * t];
         }
-        let index = |c: usize, o: usize| (base[c] + o as i64).clamp(0, self.dims[c] as i64 - 1) as usize;
+        // The taps' offsets along each axis (clamped to the grid), once per sample.
+        let (sy, sz) = (self.dims[0], self.dims[0] * self.dims[1]);
+        let taps = |c: usize, stride: usize| -> [usize; 4] { std::array::from_fn(|o| (base[c] + o as i64).clamp(0, self.dims[c] as i64 - 1) as usize * stride) };
+        let (xs, ys, zs) = (taps(0, 1), taps(1, sy), taps(2, sz));
         let (mut value, mut g) = (0.0, DVec3::ZERO);
         for c in 0..4 {
-            let k = index(2, c);
             let (mut v_yz, mut gx_yz, mut gy_yz) = (0.0, 0.0, 0.0);
             let mut v_y = [0.0; 4];
             for b in 0..4 {
-                let j = index(1, b);
+                let row = ys[b] + zs[c];
                 let (mut v, mut gx) = (0.0, 0.0);
                 for a in 0..4 {
-                    let f = self.at(index(0, a), j, k);
+                    let f = f64::from(self.values[row + xs[a]]);
                     v += w[0][a] * f;
                     gx += d[0][a] * f;
                 }
@@ -386,15 +388,16 @@ pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32
 
     // Seeds: voxels with a face neighbour on the other side, projected onto the surface (Newton
     // steps along the gradient; the crossing on the edge where they do not converge).
-    let project = |p: DVec3| -> Option<DVec3> {
+    // Returns the point and the field's gradient there (world units).
+    let project = |p: DVec3| -> Option<(DVec3, DVec3)> {
         let mut q = p;
         for _ in 0..NEWTON_STEPS {
             let (f, g) = field.sample(kernel, inverse * (q - t));
             let r = f - iso;
-            if r.abs() < CONVERGED {
-                return Some(q);
-            }
             let gw = gradient_to_world * g;
+            if r.abs() < CONVERGED {
+                return Some((q, gw));
+            }
             let g2 = gw.length_squared();
             if g2 < 1e-12 {
                 return None;
@@ -432,12 +435,14 @@ pub fn level_set_from_field_with(field: &GridField<'_>, kernel: Kernel, iso: f32
                 }
                 let Some((m, k)) = edge else { continue };
                 let p = voxel_of(l, n).as_dvec3() * h;
-                let foot = project(p).unwrap_or_else(|| {
+                // (The gradient at a converged foot is the last step's.)
+                let (foot, gradient) = project(p).unwrap_or_else(|| {
                     let (a, b) = (f64::from(values[l][n]), f64::from(values[m][k]));
                     let s = ((iso - a) / (b - a)).clamp(0.0, 1.0);
-                    p + (voxel_of(m, k).as_dvec3() * h - p) * s
+                    let foot = p + (voxel_of(m, k).as_dvec3() * h - p) * s;
+                    (foot, gradient_to_world * field.sample(kernel, inverse * (foot - t)).1)
                 });
-                let normal = (gradient_to_world * field.sample(kernel, inverse * (foot - t)).1).normalize_or_zero();
+                let normal = gradient.normalize_or_zero();
                 out.push((n, foot, normal));
             }
             out
