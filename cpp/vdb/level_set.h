@@ -52,6 +52,7 @@ public:
   void csg_intersection(const LevelSet& other);
   // Moves the surface along its normals by `distance` mm, outward when positive (offset.cc).
   void offset(double distance);
+  void narrow_band(double half_width_voxels);
 
   MeshBuffers to_mesh() const;
 

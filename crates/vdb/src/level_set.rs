@@ -431,11 +431,19 @@ impl LevelSet {
         self.edit().csg_intersection(&other.inner).map_err(openvdb("CSG intersection"))
     }
 
-    /// Moves the surface along its normals by `distance` mm, outward when positive: within half a
-    /// voxel by shifting the values, beyond by OpenVDB's `LevelSetFilter::offset` (re-tracks the
-    /// narrow band). A small offset changes the enclosed volume by about area × distance.
+    /// Moves the surface along its normals by `distance` mm, outward when positive: by shifting
+    /// the values where the band keeps 2.5 voxels each side after it (half a voxel in a 3-voxel
+    /// band; build a wider band, then [`Self::narrow_band`], to move farther at that cost),
+    /// beyond by OpenVDB's `LevelSetFilter::offset` (re-tracks the narrow band per half voxel).
+    /// A small offset changes the enclosed volume by about area × distance.
     pub fn offset(&mut self, distance: f64) -> Result<()> {
         self.edit().offset(distance).map_err(openvdb("level set offset"))
+    }
+
+    /// Trims the band to `half_width_voxels` each side (no change if it is no wider): the
+    /// values beyond become the inactive outside or inside, and the background the new width.
+    pub fn narrow_band(&mut self, half_width_voxels: f64) -> Result<()> {
+        self.edit().narrow_band(half_width_voxels).map_err(openvdb("level set narrow band"))
     }
 
     /// The zero iso-surface as triangles with outward normals (OpenVDB's `volumeToMesh`).

@@ -80,6 +80,7 @@ pub(crate) mod ffi {
         fn csg_union(self: Pin<&mut LevelSet>, other: &LevelSet) -> Result<()>;
         fn csg_intersection(self: Pin<&mut LevelSet>, other: &LevelSet) -> Result<()>;
         fn offset(self: Pin<&mut LevelSet>, distance: f64) -> Result<()>;
+        fn narrow_band(self: Pin<&mut LevelSet>, half_width_voxels: f64) -> Result<()>;
         fn to_mesh(self: &LevelSet) -> MeshBuffers;
 
         fn set_meta_string(self: Pin<&mut LevelSet>, key: &str, value: &str);

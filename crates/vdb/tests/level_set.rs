@@ -128,6 +128,42 @@ fn offset_moves_the_surface_along_its_normals() {
 }
 
 #[test]
+fn a_wide_band_moves_by_its_values_then_narrows_to_the_usual_band() {
+    let (r, d) = (1.0, 2.0 * H);
+    // The usual band, moved by re-tracking: the reference.
+    let mut tracked = sphere(DVec3::ZERO, r);
+    tracked.offset(d).unwrap();
+    let mut wide = LevelSet::sphere(DVec3::ZERO, r, H, HALF_WIDTH + 2.0).unwrap();
+    // Two voxels in two steps, each kept 2.5 voxels of band each side: both shift the values.
+    wide.offset(0.5 * d).unwrap();
+    wide.offset(0.5 * d).unwrap();
+    wide.narrow_band(HALF_WIDTH).unwrap();
+    assert!((f64::from(wide.background()) - HALF_WIDTH * H).abs() < 1e-6, "background {}", wide.background());
+    let expected = 4.0 / 3.0 * PI * (r + d).powi(3);
+    for grid in [&wide, &tracked] {
+        assert!((grid.volume() / expected - 1.0).abs() < 0.005, "{} vs {expected}", grid.volume());
+    }
+    // The same band as the tracked grid's: every value within it, within a tenth of a voxel of
+    // the moved sphere's distance.
+    let (mut a, mut b) = (wide.reader(), tracked.reader());
+    let mut worst = 0.0f64;
+    for i in -40..=40 {
+        for j in [-3, 0, 5] {
+            let p = DVec3::new(f64::from(i) * 0.5 * H + r + d - 0.5, f64::from(j) * H, 0.25 * H);
+            let exact = (p.length() - (r + d)).clamp(-HALF_WIDTH * H, HALF_WIDTH * H);
+            let (va, vb) = (f64::from(a.value(p)), f64::from(b.value(p)));
+            assert!(va.abs() <= HALF_WIDTH * H + 1e-6, "{p}: {va} beyond the band");
+            if exact.abs() < (HALF_WIDTH - 0.5) * H {
+                worst = worst.max((va - exact).abs());
+                assert!((vb - exact).abs() < 0.2 * H, "{p}: tracked {vb}, exact {exact}");
+            }
+        }
+    }
+    assert!(worst < 0.1 * H, "shifted values off the moved sphere's distance by {worst}");
+    assert!(wide.narrow_band(0.5).is_err());
+}
+
+#[test]
 fn mismatched_transforms_are_refused() {
     let mut a = sphere(DVec3::ZERO, 1.0);
     let b = LevelSet::sphere(DVec3::ZERO, 1.0, 0.1, HALF_WIDTH).unwrap();
