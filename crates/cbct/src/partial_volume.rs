@@ -143,70 +143,81 @@ fn median(mut v: Vec<f32>) -> f64 {
 /// (`f32::INFINITY` without seeds): exact, separable (Felzenszwalb & Huttenlocher), linear cost.
 pub fn distance_mm(dims: [usize; 3], spacing: [f64; 3], seed: &[bool]) -> Vec<f32> {
     let [nx, ny, nz] = dims;
-    let mut d2: Vec<f64> = seed.iter().map(|&s| if s { 0.0 } else { f64::INFINITY }).collect();
-    for axis in 0..3 {
-        let (n, stride) = [(nx, 1), (ny, nx), (nz, nx * ny)][axis];
-        if n == 0 {
-            return vec![f32::INFINITY; seed.len()];
-        }
-        let starts: Vec<usize> = match axis {
-            0 => (0..ny * nz).map(|l| l * nx).collect(),
-            1 => (0..nz).flat_map(|k| (0..nx).map(move |i| i + nx * ny * k)).collect(),
-            _ => (0..nx * ny).collect(),
-        };
-        let w = spacing[axis] * spacing[axis];
-        let lines: Vec<Vec<f64>> = starts
-            .par_iter()
-            .map(|&start| {
-                let f: Vec<f64> = (0..n).map(|q| d2[start + q * stride]).collect();
-                lower_envelope(&f, w)
-            })
-            .collect();
-        for (&start, line) in starts.iter().zip(lines) {
-            for (q, v) in line.into_iter().enumerate() {
-                d2[start + q * stride] = v;
-            }
-        }
+    if nx == 0 || ny == 0 || nz == 0 {
+        return vec![f32::INFINITY; seed.len()];
     }
-    d2.into_iter().map(|v| v.sqrt() as f32).collect()
+    let mut d2: Vec<f64> = seed.par_iter().map(|&s| if s { 0.0 } else { f64::INFINITY }).collect();
+    let w = spacing.map(|s| s * s);
+    let slab = nx * ny;
+    // Along x, the rows in place; along y, each slab's columns; along z, the lines gathered
+    // line by line into a buffer, then scattered back slab by slab (every part side by side).
+    d2.par_chunks_mut(nx).for_each_init(Envelope::default, |e, row| e.apply(row, w[0]));
+    d2.par_chunks_mut(slab).for_each_init(
+        || (Envelope::default(), vec![0.0; ny]),
+        |(e, line), part| {
+            for i in 0..nx {
+                line.iter_mut().enumerate().for_each(|(j, v)| *v = part[i + nx * j]);
+                e.apply(line, w[1]);
+                line.iter().enumerate().for_each(|(j, &v)| part[i + nx * j] = v);
+            }
+        },
+    );
+    let mut lines = vec![0.0; d2.len()];
+    lines.par_chunks_mut(nz).enumerate().for_each_init(Envelope::default, |e, (l, line)| {
+        line.iter_mut().enumerate().for_each(|(k, v)| *v = d2[l + slab * k]);
+        e.apply(line, w[2]);
+    });
+    d2.par_chunks_mut(slab).enumerate().for_each(|(k, part)| part.iter_mut().enumerate().for_each(|(l, v)| *v = lines[l * nz + k]));
+    d2.into_par_iter().map(|v| v.sqrt() as f32).collect()
 }
 
-/// min over p of f(p) + w·(q − p)² for every q: the lower envelope of parabolas.
-fn lower_envelope(f: &[f64], w: f64) -> Vec<f64> {
-    let n = f.len();
-    let sites: Vec<usize> = (0..n).filter(|&q| f[q].is_finite()).collect();
-    if sites.is_empty() {
-        return vec![f64::INFINITY; n];
-    }
-    let cross = |p: usize, q: usize| ((f[q] + w * (q * q) as f64) - (f[p] + w * (p * p) as f64)) / (2.0 * w * (q as f64 - p as f64));
-    let mut v: Vec<usize> = Vec::with_capacity(sites.len());
-    let mut z: Vec<f64> = Vec::with_capacity(sites.len() + 1);
-    z.push(f64::NEG_INFINITY);
-    for &q in &sites {
-        while let Some(&p) = v.last() {
-            if cross(p, q) <= z[v.len() - 1] {
-                v.pop();
-                z.pop();
-            } else {
-                break;
+/// min over p of f(p) + w·(q − p)² for every q: the lower envelope of parabolas, its buffers
+/// kept from line to line.
+#[derive(Default)]
+struct Envelope {
+    f: Vec<f64>,
+    v: Vec<usize>,
+    z: Vec<f64>,
+}
+
+impl Envelope {
+    /// Replaces `line` (f) by its envelope; all infinite where no value is finite.
+    fn apply(&mut self, line: &mut [f64], w: f64) {
+        let Envelope { f, v, z } = self;
+        f.clear();
+        f.extend_from_slice(line);
+        v.clear();
+        z.clear();
+        z.push(f64::NEG_INFINITY);
+        let cross = |p: usize, q: usize| ((f[q] + w * (q * q) as f64) - (f[p] + w * (p * p) as f64)) / (2.0 * w * (q as f64 - p as f64));
+        for q in (0..f.len()).filter(|&q| f[q].is_finite()) {
+            while let Some(&p) = v.last() {
+                if cross(p, q) <= z[v.len() - 1] {
+                    v.pop();
+                    z.pop();
+                } else {
+                    break;
+                }
             }
+            if let Some(&p) = v.last() {
+                z.push(cross(p, q));
+            }
+            v.push(q);
         }
-        if let Some(&p) = v.last() {
-            z.push(cross(p, q));
+        if v.is_empty() {
+            line.fill(f64::INFINITY);
+            return;
         }
-        v.push(q);
+        z.push(f64::INFINITY);
+        let mut k = 0;
+        for (q, o) in line.iter_mut().enumerate() {
+            while z[k + 1] < q as f64 {
+                k += 1;
+            }
+            let p = v[k];
+            *o = f[p] + w * ((q as f64 - p as f64).powi(2));
+        }
     }
-    z.push(f64::INFINITY);
-    let mut out = vec![0.0; n];
-    let mut k = 0;
-    for (q, o) in out.iter_mut().enumerate() {
-        while z[k + 1] < q as f64 {
-            k += 1;
-        }
-        let p = v[k];
-        *o = f[p] + w * ((q as f64 - p as f64).powi(2));
-    }
-    out
 }
 
 #[cfg(test)]
