@@ -1,15 +1,15 @@
 // LevelSet basics: construction from leaves, measures, CSG and metadata.
 #include <openvdb/tools/Composite.h>
-#include <openvdb/tree/LeafManager.h>
-#include <tbb/parallel_for.h>
 #include <openvdb/tools/LevelSetSphere.h>
 #include <openvdb/tools/Prune.h>
 #include <openvdb/tools/SignedFloodFill.h>
+#include <openvdb/tree/LeafManager.h>
+#include <tbb/parallel_for.h>
 
 #include <array>
 #include <mutex>
-#include <vector>
 #include <stdexcept>
+#include <vector>
 
 #include "impl.h"
 
