@@ -133,28 +133,37 @@ double LevelSet::volume() const {
   const double h = voxel_size();
   const VolumeKernels kernels(h);
   const FloatTree& tree = impl->grid->tree();
-  // The tiles above the leaves (inside tiles count whole), then each leaf's voxels side by side,
-  // their sums added in leaf order: the same result on any number of threads.
-  double tiles = 0.0;
+  // Voxels wholly inside are counted (an integer, the same in any order), the surface's
+  // fractions summed: then the volume is the same on any number of threads, and the same whether
+  // the inside is tiles or leaves (voxelize_inside). The tiles above the leaves first, then each
+  // leaf side by side, their sums added in leaf order.
+  uint64_t whole = 0;
+  double fractions = 0.0;
+  const auto add = [&kernels](float value, uint64_t count, uint64_t& whole, double& fractions) {
+    const double f = kernels.inside_fraction(value);
+    if (f == 1.0)
+      whole += count;
+    else if (f > 0.0)
+      fractions += f * double(count);
+  };
   auto it = tree.cbeginValueAll();
   it.setMaxDepth(FloatTree::ValueAllCIter::LEAF_DEPTH - 1);
-  for (; it; ++it) {
-    const double f = kernels.inside_fraction(*it);
-    if (f > 0.0) tiles += f * double(it.getVoxelCount());
-  }
-  // Per leaf: the inside fractions of its voxels, and the curvature correction over its active
-  // voxels near the surface (see VolumeKernels in impl.h).
+  for (; it; ++it) add(*it, it.getVoxelCount(), whole, fractions);
+  // Per leaf: its voxels, and the curvature correction over its active voxels near the surface
+  // (see VolumeKernels in impl.h).
+  struct Part {
+    uint64_t whole = 0;
+    double fractions = 0.0, correction = 0.0;
+  };
   openvdb::tree::LeafManager<const FloatTree> leaves(tree);
-  std::vector<std::array<double, 2>> parts(leaves.leafCount());
+  std::vector<Part> parts(leaves.leafCount());
   tbb::parallel_for(leaves.leafRange(), [&](const openvdb::tree::LeafManager<const FloatTree>::LeafRange& range) {
     openvdb::tree::ValueAccessor<const FloatTree, false> acc(tree);
     for (auto leaf = range.begin(); leaf; ++leaf) {
-      double sum = 0.0, correction = 0.0;
+      Part& part = parts[leaf.pos()];
       const float* values = leaf->buffer().data();
-      for (openvdb::Index n = 0; n < FloatTree::LeafNodeType::SIZE; ++n) {
-        const double f = kernels.inside_fraction(values[n]);
-        if (f > 0.0) sum += f;
-      }
+      for (openvdb::Index n = 0; n < FloatTree::LeafNodeType::SIZE; ++n)
+        add(values[n], 1, part.whole, part.fractions);
       for (auto v = leaf->cbeginValueOn(); v; ++v) {
         const float phi = *v;
         if (!(std::fabs(phi) < kernels.eps)) continue;
@@ -162,17 +171,17 @@ double LevelSet::volume() const {
         const float s = acc.getValue(c.offsetBy(1, 0, 0)) + acc.getValue(c.offsetBy(-1, 0, 0)) +
                         acc.getValue(c.offsetBy(0, 1, 0)) + acc.getValue(c.offsetBy(0, -1, 0)) +
                         acc.getValue(c.offsetBy(0, 0, 1)) + acc.getValue(c.offsetBy(0, 0, -1));
-        correction += kernels.curvature_weight(phi) * (s - 6.f * phi) / (h * h);
+        part.correction += kernels.curvature_weight(phi) * (s - 6.f * phi) / (h * h);
       }
-      parts[leaf.pos()] = {sum, correction};
     }
   });
-  double sum = tiles, correction = 0.0;
-  for (const auto& [s, c] : parts) {
-    sum += s;
-    correction += c;
+  double correction = 0.0;
+  for (const Part& part : parts) {
+    whole += part.whole;
+    fractions += part.fractions;
+    correction += part.correction;
   }
-  return (sum - correction) * h * h * h;
+  return (double(whole) + fractions - correction) * h * h * h;
 }
 
 static void require_same_transform(const FloatGrid& a, const FloatGrid& b, const char* op) {
