@@ -319,7 +319,7 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
     let mut thresholds: Vec<f64> = proposals.iter().map(|p| 0.5 * (p[0] + p[1])).collect();
     thresholds.sort_by(f64::total_cmp);
     thresholds.dedup();
-    let outsides: Vec<(f64, Vec<bool>)> = thresholds.into_par_iter().map(|t| (t, grid.outside(t))).collect();
+    let outsides: Vec<(f64, Vec<bool>)> = thresholds.iter().copied().zip(grid.outsides(&thresholds)).collect();
     let mut tested: Vec<([f64; 3], Layering)> = proposals.par_iter().map(|&p| (p, grid.layering(p, &outsides))).collect();
     tested.sort_by(|a, b| b.1.score().total_cmp(&a.1.score()));
     let peaks_text = found.iter().map(|p| format!("{:.0}", p.grey)).collect::<Vec<_>>().join(", ");
@@ -556,13 +556,25 @@ impl Coarse {
     /// medium at least three voxels wide, then grown back by a voxel. Medium the tooth encloses
     /// (an empty pulp chamber, a canal open at the apex by less than that) is not.
     fn outside(&self, t1: f64) -> Vec<bool> {
-        let medium: Vec<bool> = self.values.par_iter().map(|&v| v as f64 <= t1).collect();
-        // Past the grid's border counts as medium.
-        let wide = mask::neighbour_map(self.dims, &medium, true, |m, near| m && near.iter().all(|&v| v));
-        let reached = mask::flood_from_border(self.dims, &wide);
-        let mut outside = mask::neighbour_map(self.dims, &reached, false, |r, near| r || near.iter().any(|&v| v));
-        outside.par_iter_mut().zip(&medium).for_each(|(o, &m)| *o &= m);
-        outside
+        self.outsides(&[t1]).pop().unwrap_or_default()
+    }
+
+    /// [`Self::outside`] at each of `thresholds` (ascending). The media at rising thresholds are
+    /// nested, so one pass serves them all: a voxel's level is the first threshold its grey is
+    /// medium under, the floods of every level are filled at once
+    /// ([`mask::flood_levels_from_border`]), and each outside is read off the levels.
+    fn outsides(&self, thresholds: &[f64]) -> Vec<Vec<bool>> {
+        let levels = thresholds.len().min(usize::from(u8::MAX - 1)) as u8;
+        let thresholds = &thresholds[..usize::from(levels)];
+        let level: Vec<u8> = self.values.par_iter().map(|&v| thresholds.iter().position(|&t| v as f64 <= t).map_or(levels, |l| l as u8)).collect();
+        // Medium at least three wide from a level on: it and its neighbours are medium (past the
+        // grid's border counts as medium).
+        let wide = mask::neighbour_map(self.dims, &level, 0, |own, near| near.iter().fold(own, |a, &b| a.max(b)));
+        let reached = mask::flood_levels_from_border(self.dims, &wide, levels);
+        // Reached, or beside a reached voxel (none past the border), and medium.
+        let outside = mask::neighbour_map(self.dims, &reached, u8::MAX, |own, near| near.iter().fold(own, |a, &b| a.min(b)));
+        let outside: Vec<u8> = outside.par_iter().zip(&level).map(|(&r, &l)| r.max(l)).collect();
+        (0..levels).map(|l| outside.par_iter().map(|&o| o <= l).collect()).collect()
     }
 
     /// Tests a proposal (medium, dentin, enamel): at each 6-neighbour contact of an enamel voxel

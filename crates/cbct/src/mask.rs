@@ -6,12 +6,12 @@
 
 use rayon::prelude::*;
 
-/// Each voxel's `f(own, [−x, +x, −y, +y, −z, +z] neighbours)` over mask `of`, with `beyond`
+/// Each voxel's `f(own, [−x, +x, −y, +y, −z, +z] neighbours)` over `of` (a mask, or levels), with `beyond`
 /// past the grid's border; slabs side by side, rows scanned with no index divided.
-pub fn neighbour_map(dims: [usize; 3], of: &[bool], beyond: bool, f: impl Fn(bool, [bool; 6]) -> bool + Sync) -> Vec<bool> {
+pub fn neighbour_map<T: Copy + Sync, U: Copy + Default + Send>(dims: [usize; 3], of: &[T], beyond: T, f: impl Fn(T, [T; 6]) -> U + Sync) -> Vec<U> {
     let [nx, ny, nz] = dims;
     let (sy, sz) = (nx, nx * ny);
-    let mut out = vec![false; of.len()];
+    let mut out = vec![U::default(); of.len()];
     if of.is_empty() {
         return out;
     }
@@ -85,14 +85,85 @@ pub fn flood(dims: [usize; 3], allowed: &[bool], starts: impl IntoIterator<Item 
 
 /// The voxels of `allowed` connected to the grid's border (6-connected).
 pub fn flood_from_border(dims: [usize; 3], allowed: &[bool]) -> Vec<bool> {
+    // (Voxels on edges come twice; the second finds them seen.)
+    let starts = border_voxels(dims).filter(|&n| allowed[n]);
+    flood(dims, allowed, starts)
+}
+
+/// The floods from the border of every level at once: for voxels at `level`s (`levels` and above:
+/// never reached), each voxel's least level L such that it is connected to the grid's border
+/// through voxels at levels ≤ L (6-connected), `u8::MAX` where none is. So `reached[n] <= l` is
+/// [`flood_from_border`] of `level <= l`, for each l: nested floods filled once, from the
+/// lowest level up, each voxel a level stops at kept for the level that opens it.
+pub fn flood_levels_from_border(dims: [usize; 3], level: &[u8], levels: u8) -> Vec<u8> {
     let [nx, ny, nz] = dims;
+    let (sy, sz) = (nx, nx * ny);
+    let mut reached = vec![u8::MAX; level.len()];
+    let mut pending: Vec<Vec<usize>> = vec![Vec::new(); usize::from(levels)];
+    for n in border_voxels(dims) {
+        if level[n] < levels {
+            pending[usize::from(level[n])].push(n);
+        }
+    }
+    let mut stack = Vec::new();
+    for l in 0..levels {
+        let seeds = std::mem::take(&mut pending[usize::from(l)]);
+        for s in seeds {
+            stack.push(s);
+            while let Some(s) = stack.pop() {
+                if reached[s] != u8::MAX || level[s] > l {
+                    continue;
+                }
+                let row = s / nx;
+                let (row_start, row_end) = (row * nx, row * nx + nx - 1);
+                let fillable = |m: usize, reached: &[u8]| level[m] <= l && reached[m] == u8::MAX;
+                let (mut a, mut b) = (s, s);
+                while a > row_start && fillable(a - 1, &reached) {
+                    a -= 1;
+                }
+                while b < row_end && fillable(b + 1, &reached) {
+                    b += 1;
+                }
+                reached[a..=b].iter_mut().for_each(|v| *v = l);
+                // A voxel a level stops at waits for its own level (it is above l).
+                let mut wait = |m: usize, reached: &[u8]| {
+                    if reached[m] == u8::MAX && level[m] < levels {
+                        pending[usize::from(level[m])].push(m);
+                    }
+                };
+                if a > row_start {
+                    wait(a - 1, &reached);
+                }
+                if b < row_end {
+                    wait(b + 1, &reached);
+                }
+                let (j, k) = (row % ny, row / ny);
+                let rows = [(j > 0).then(|| a - sy), (j + 1 < ny).then(|| a + sy), (k > 0).then(|| a - sz), (k + 1 < nz).then(|| a + sz)];
+                for first in rows.into_iter().flatten() {
+                    let mut open = false;
+                    for m in first..=first + (b - a) {
+                        let f = fillable(m, &reached);
+                        if f && !open {
+                            stack.push(m);
+                        } else if !f {
+                            wait(m, &reached);
+                        }
+                        open = f;
+                    }
+                }
+            }
+        }
+    }
+    reached
+}
+
+/// The voxels on the grid's six faces (those on edges more than once).
+fn border_voxels([nx, ny, nz]: [usize; 3]) -> impl Iterator<Item = usize> {
     let at = move |i: usize, j: usize, k: usize| i + nx * (j + ny * k);
-    // The six faces (voxels on edges come twice; the second finds them seen).
     let x_faces = (0..nz).flat_map(move |k| (0..ny).flat_map(move |j| [at(0, j, k), at(nx - 1, j, k)]));
     let y_faces = (0..nz).flat_map(move |k| (0..nx).flat_map(move |i| [at(i, 0, k), at(i, ny - 1, k)]));
     let z_faces = (0..ny).flat_map(move |j| (0..nx).flat_map(move |i| [at(i, j, 0), at(i, j, nz - 1)]));
-    let starts = x_faces.chain(y_faces).chain(z_faces).filter(|&n| allowed[n]);
-    flood(dims, allowed, starts)
+    x_faces.chain(y_faces).chain(z_faces)
 }
 
 /// Connected components (6-connected) of `m`: the component's id per voxel (0 = none, ids in
@@ -199,6 +270,32 @@ mod tests {
             }
             let expected: Vec<bool> = (0..m.len()).map(|n| m[n] && touching[id[n] as usize]).collect();
             assert_eq!(flood_from_border(dims, &m), expected, "{dims:?}");
+        }
+    }
+
+    #[test]
+    fn the_floods_of_every_level_at_once_are_each_levels_flood() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        for (dims, m) in masks() {
+            // Levels 0..=4 (4: never reached), with the mask's voxels kept low so that each
+            // level's set is connected in places and walled in others.
+            let level: Vec<u8> = m
+                .iter()
+                .map(|&v| {
+                    state ^= state << 13;
+                    state ^= state >> 7;
+                    state ^= state << 17;
+                    if v { (state % 3) as u8 } else { 2 + (state % 3) as u8 }
+                })
+                .collect();
+            let reached = flood_levels_from_border(dims, &level, 4);
+            for l in 0..4u8 {
+                let allowed: Vec<bool> = level.iter().map(|&v| v <= l).collect();
+                let expected = flood_from_border(dims, &allowed);
+                let got: Vec<bool> = reached.iter().map(|&r| r <= l).collect();
+                assert_eq!(got, expected, "{dims:?} level {l}");
+            }
+            assert!(reached.iter().zip(&level).all(|(&r, &v)| r == u8::MAX || (r >= v && r < 4)));
         }
     }
 }

@@ -24,7 +24,7 @@ use crate::error::{Error, Result};
 use crate::partial_volume::distance_mm;
 use crate::volume::{LabelVolume, Volume};
 use rayon::prelude::*;
-use crate::mask::{components, flood, neighbour_map};
+use crate::mask::{components, flood_from_border, neighbour_map};
 use std::collections::VecDeque;
 
 /// Which tooth to segment: FDI number (ISO 3950) and a point inside it or a box around it (LPS mm).
@@ -751,7 +751,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     let bmetal: Vec<bool> = (0..bn).map(|l| out.labels[bx.global(l)] == Label::Metal as u8).collect();
     let open: Vec<bool> = (0..bn).map(|l| !(btooth[l] || closed[l] || bmetal[l])).collect();
     let mut enclosed = {
-        let outside = flood(bx.g.d, &open, (0..bn).filter(|&l| open[l] && bx.on_face(l)));
+        let outside = flood_from_border(bx.g.d, &open);
         (0..bn).map(|l| open[l] && !outside[l]).collect::<Vec<bool>>()
     };
     // The outside also ends at passages at most 2 voxels wide: a canal behind an apical wall
@@ -760,7 +760,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     // thinner pockets (the bottoms of fissures) are outside.
     let behind_neck = {
         let core = erode_in_box(&bx.g, &open);
-        let reach = flood(bx.g.d, &core, (0..bn).filter(|&l| core[l] && bx.on_face(l)));
+        let reach = flood_from_border(bx.g.d, &core);
         let wide = morph(&bx.g, &reach, true);
         (0..bn).map(|l| open[l] && !wide[l]).collect::<Vec<bool>>()
     };
