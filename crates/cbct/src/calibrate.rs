@@ -611,53 +611,61 @@ impl Coarse {
     fn layerings(&self, [m, d, e]: [f64; 3], outside: &[bool]) -> [Layering; 2] {
         let (t1, t2) = (0.5 * (m + d), 0.5 * (d + e));
         let [nx, ny, nz] = self.dims;
+        // The grid with a layer of BEYOND around it, so that walks and neighbours need no bounds
+        // test: a walk ends there as at the medium, and it is no tissue and no medium.
+        let [px, py, pz] = [nx + 2, ny + 2, nz + 2];
+        let stride = [1, px, px * py];
+        let padded = |i: usize, j: usize, k: usize| (i + 1) + px * ((j + 1) + py * (k + 1));
         // 0 the medium around the tooth, 1 dentin, 2 enamel, 3 medium enclosed by the tooth:
         // the second reading's walks go on through it, and it is no surface; the first's see
         // medium.
-        let classes: Vec<u8> = self
-            .values
-            .par_iter()
-            .zip(outside)
-            .map(|(&v, &out)| {
-                let v = v as f64;
-                if v <= t1 {
-                    if out {
-                        0
+        let mut classes = vec![BEYOND; px * py * pz];
+        classes.par_chunks_mut(px * py).skip(1).take(nz).enumerate().for_each(|(k, slab)| {
+            for j in 0..ny {
+                for i in 0..nx {
+                    let n = i + nx * (j + ny * k);
+                    let v = f64::from(self.values[n]);
+                    slab[(i + 1) + px * (j + 1)] = if v <= t1 {
+                        if outside[n] {
+                            0
+                        } else {
+                            3
+                        }
+                    } else if v <= t2 {
+                        1
                     } else {
-                        3
-                    }
-                } else if v <= t2 {
-                    1
-                } else {
-                    2
+                        2
+                    };
                 }
-            })
-            .collect();
+            }
+        });
+        let classes = &classes;
         // The class of a voxel in a reading (0: all medium; 1: the outside only).
-        let at = |i: [isize; 3], reading: usize| -> Option<u8> {
-            ((0..3).all(|c| i[c] >= 0 && (i[c] as usize) < self.dims[c])).then(|| match classes[i[0] as usize + nx * (i[1] as usize + ny * i[2] as usize)] {
+        let at = |n: usize, reading: usize| -> u8 {
+            match classes[n] {
                 3 if reading == 0 => 0,
                 c => c,
-            })
+            }
         };
-        let walk = |from: [isize; 3], axis: usize, dir: isize, reading: usize| -> f64 {
-            let cap = (4.0 / self.spacing[axis]).ceil() as isize;
+        let caps = [0, 1, 2].map(|axis| (4.0 / self.spacing[axis]).ceil() as usize);
+        let thick_steps = [0, 1, 2].map(|axis| (1.0 / self.spacing[axis]).ceil() as usize);
+        let walk = |from: usize, axis: usize, dir: isize, reading: usize| -> f64 {
+            let step = dir * stride[axis] as isize;
             let mut p = from;
-            for s in 1..=cap {
-                p[axis] += dir;
-                match at(p, reading) {
-                    Some(0) | None => return s as f64 * self.spacing[axis],
-                    _ => {}
+            for s in 1..=caps[axis] {
+                p = p.wrapping_add_signed(step);
+                if matches!(at(p, reading), 0 | BEYOND) {
+                    return s as f64 * self.spacing[axis];
                 }
             }
             f64::INFINITY
         };
-        let thick = |from: [isize; 3], axis: usize, dir: isize| -> bool {
-            let n = (1.0 / self.spacing[axis]).ceil() as isize;
+        let thick = |from: usize, axis: usize, dir: isize| -> bool {
+            let step = dir * stride[axis] as isize;
             let mut p = from;
-            (0..n).all(|_| {
-                p[axis] += dir;
-                at(p, 0) == Some(1)
+            (0..thick_steps[axis]).all(|_| {
+                p = p.wrapping_add_signed(step);
+                at(p, 0) == 1
             })
         };
         let add = |a: [Layering; 2], b: [Layering; 2]| [0, 1].map(|r| a[r].plus(&b[r]));
@@ -667,8 +675,8 @@ impl Coarse {
                 let mut out = [Layering::default(); 2];
                 for j in 0..ny {
                     for i in 0..nx {
-                        let p = [i as isize, j as isize, k as isize];
-                        let class = classes[i + nx * (j + ny * k)];
+                        let p = padded(i, j, k);
+                        let class = classes[p];
                         if class != 1 && class != 2 {
                             continue;
                         }
@@ -677,9 +685,8 @@ impl Coarse {
                                 // dentin facing the medium with ≥ 1 mm of dentin behind it: a root
                                 for axis in 0..3 {
                                     for dir in [-1isize, 1] {
-                                        let mut q = p;
-                                        q[axis] += dir;
-                                        if at(q, reading) == Some(0) && thick(p, axis, -dir) {
+                                        let q = p.wrapping_add_signed(dir * stride[axis] as isize);
+                                        if at(q, reading) == 0 && thick(p, axis, -dir) {
                                             l.bare += 1;
                                         }
                                     }
@@ -689,19 +696,12 @@ impl Coarse {
                             let mut on_surface = false;
                             for axis in 0..3 {
                                 for dir in [-1isize, 1] {
-                                    let mut q = p;
-                                    q[axis] += dir;
+                                    let q = p.wrapping_add_signed(dir * stride[axis] as isize);
                                     match at(q, reading) {
-                                        Some(2) => {}
-                                        Some(1) => {
+                                        2 => {}
+                                        1 => {
                                             on_surface = true;
-                                            let touches_medium = (0..3).any(|a| {
-                                                [-1isize, 1].iter().any(|&s| {
-                                                    let mut r = q;
-                                                    r[a] += s;
-                                                    at(r, reading) == Some(0)
-                                                })
-                                            });
+                                            let touches_medium = stride.iter().any(|&s| at(q - s, reading) == 0 || at(q + s, reading) == 0);
                                             if touches_medium {
                                                 continue;
                                             }
@@ -728,6 +728,9 @@ impl Coarse {
             .reduce(|| [Layering::default(); 2], add)
     }
 }
+
+/// [`Coarse::layerings`]' class past the grid's border.
+const BEYOND: u8 = 4;
 
 /// Contacts of enamel with dentin under one proposal.
 #[derive(Debug, Clone, Copy, Default)]
