@@ -550,6 +550,8 @@ struct SceneEval {
     margin: f64,
 }
 
+/// The periodontal ligament's width: soft tissue between a root and its socket's bone (above the
+/// bone the crown meets the gum or the air).
 const PDL_MM: f64 = 0.2;
 
 /// Sample points per axis over which a boundary voxel of the scan is averaged: 4³ = 64 gives
@@ -707,7 +709,8 @@ impl Phantom {
         let b = self.bone(l);
         let g = self.gum(l);
         margin = margin.min(b.abs()).min((b + CORTICAL_MM).abs()).min(g.abs());
-        let label = if teeth_min - PDL_MM < 0.0 {
+        // The ligament lines the socket only: above the bone the crown meets gum or air.
+        let label = if teeth_min - PDL_MM < 0.0 && b < 0.0 {
             Label::SoftTissue
         } else if b < 0.0 {
             if b + CORTICAL_MM < 0.0 {
@@ -754,8 +757,9 @@ impl Phantom {
         match label {
             Label::BoneCortical => b.max(-(b + CORTICAL_MM)).max(-socket),
             Label::BoneCancellous => (b + CORTICAL_MM).max(-socket),
-            Label::SoftTissue => g.min(socket).max(-teeth_min).max(-(b.max(-socket))),
-            Label::Air => -(g.min(socket)),
+            // The ligament in the socket (bone's), and the gum off the bone.
+            Label::SoftTissue => b.max(socket).min((-b).max(g)).max(-teeth_min),
+            Label::Air => -(b.min(g).min(teeth_min)),
             _ => best,
         }
     }

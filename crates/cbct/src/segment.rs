@@ -448,9 +448,6 @@ fn thin_canals(g: &Grid, tooth: &[bool], vals: &[f32], outside: &[bool], cal: &C
 /// Least depth (mm) of a body of bone grey for it to be bone, not a blurred edge.
 const BONE_DEPTH_MM: f64 = 0.4;
 
-fn snap(v: f64, cal: &Calibration, among: &[Label]) -> Label {
-    *among.iter().min_by(|a, b| (cal.peak(**a) - v).abs().total_cmp(&(cal.peak(**b) - v).abs())).unwrap_or(&among[0])
-}
 
 /// Each hard-tissue voxel's tooth (0 = none): the core eroded by ~0.6 mm, its components (the
 /// small ones dropped) regrown over the core.
@@ -897,8 +894,8 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
                     outs.push(bvals[t]);
                 }
             }
-            let mu_in = if ins.is_empty() { Label::Dentin } else { snap(median(&mut ins) as f64, cal, &hard) };
-            let mu_out = if outs.is_empty() { Label::SoftTissue } else { snap(median(&mut outs) as f64, cal, &outside_classes) };
+            let mu_in = if ins.is_empty() { Label::Dentin } else { cal.nearest(median(&mut ins) as f64, &hard) };
+            let mu_out = cal.outside_of(&mut outs, &outside_classes).unwrap_or(Label::SoftTissue);
             // Roots sit in bone behind a periodontal ligament (soft tissue, ~0.2 mm), mostly
             // thinner than the scan resolves: the root's partner is what lies next to it, the
             // ligament darkening the bone's first voxels by its share, so the partner's grey is
@@ -1012,7 +1009,7 @@ fn refine_lesion_border(bx: &BoxGrid, lesion: &[bool], id: &[u32], cav: &[Cavity
                 0 => Label::Enamel,
                 1 => Label::Dentin,
                 2 => Label::Pulp,
-                _ => snap(median(&mut outside_grey) as f64, cal, &[Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical]),
+                _ => cal.outside_of(&mut outside_grey, &[Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical]).unwrap_or(Label::SoftTissue),
             };
             let g = f64::from(vals[l]);
             let is_lesion = (g - cav[lesion_id as usize].grey).abs() < (g - cal.peak(neighbour)).abs();
