@@ -479,7 +479,7 @@ impl NestedBuilder<'_> {
         // a finer one's; its surface's area serves the step.
         let h = self.scan.min_spacing();
         let values = field::GridField { dims: self.scan.dims, index_to_world: self.scan.index_to_world(), values: field };
-        let trilinear = field::level_set_from_field_with(&values, field::Kernel::Trilinear, 0.5, h.max(self.voxel_size_mm), 3.0)?;
+        let trilinear = field::level_set_from_field_with(&values, field::Kernel::Trilinear, 0.5, h.max(self.voxel_size_mm), BAND_VOXELS)?;
         let (target, area) = (trilinear.volume(), crate::tissues::surface::surface(&trilinear)?.area());
         self.keep_volume(target, area, grid)
     }
