@@ -194,7 +194,7 @@ fn fit(pts: &[(f64, f64)]) -> Option<(f64, f64)> {
     (a > 0.0 && a.is_finite()).then_some((a, my - a * mx))
 }
 
-/// Histogram of the volume in `bins` bins over its range without a padding value: a scanner
+/// Histogram of the volume in at most `bins` bins over its range without a padding value: a scanner
 /// fills the corners outside its round field of view with one value (often the type's minimum,
 /// far below air), which would squeeze every tissue into a few bins. Returns the histogram, its
 /// range and the padding value left out (if any).
@@ -215,7 +215,17 @@ fn histogram(vol: &Volume, bins: usize) -> (Vec<f64>, f64, f64, Option<f64>) {
     // a margin, so a tissue at the very end of the range (clipped air, a scan's top) still
     // makes a peak inside the histogram
     let pad = 0.02 * (hi - lo);
-    let (lo, hi) = (lo - pad, hi + pad);
+    let (mut lo, mut hi) = (lo - pad, hi + pad);
+    let mut bins = bins;
+    // Whole grey values (an 8- or 12-bit scan's) in bins of whole steps, each value at the
+    // same place in its bin: bins narrower than a step left most of them empty, a comb whose
+    // smoothed log put the air of an 8-bit scan 8 steps (270 HU) above its grey.
+    if vol.values.par_iter().all(|v| v.fract() == 0.0) {
+        let step = ((hi - lo) / bins as f64).ceil().max(1.0);
+        lo = lo.floor() - 0.5;
+        bins = ((hi - lo) / step).ceil() as usize;
+        hi = lo + bins as f64 * step;
+    }
     let k = bins as f64 / (hi - lo);
     // Counted in parts side by side: whole counts, so the sum is the same in any order.
     let counts = vol
@@ -303,7 +313,7 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
     }
     let bins = 512;
     let (h, lo, hi, padding) = histogram(vol, bins);
-    let bw = (hi - lo) / bins as f64;
+    let bw = (hi - lo) / h.len() as f64;
     let found = peaks(&h, lo, bw);
     let by_order = match_in_order(&h, lo, bw, &found);
 
@@ -830,9 +840,13 @@ fn search(grey: &[f64], hu: &[f64], p0: usize, t0: usize, cur: &mut Vec<(usize, 
 /// soft tissue, dentin, enamel.
 fn otsu(h: &[f64], lo: f64, bw: f64) -> Option<Calibration> {
     let nb = 64;
-    let f = h.len() / nb;
-    let hc: Vec<f64> = (0..nb).map(|i| h[i * f..(i + 1) * f].iter().sum()).collect();
-    let cent = |i: usize| lo + ((i * f) as f64 + f as f64 / 2.0) * bw;
+    // The bins in nb groups of len/nb bins (bin b in group b·nb/len), each at its middle.
+    let per_group = h.len() as f64 / nb as f64;
+    let mut hc = vec![0.0; nb];
+    for (b, &c) in h.iter().enumerate() {
+        hc[b * nb / h.len()] += c;
+    }
+    let cent = |i: usize| lo + (i as f64 + 0.5) * per_group * bw;
     let (mut w, mut m) = (vec![0.0; nb + 1], vec![0.0; nb + 1]);
     for i in 0..nb {
         w[i + 1] = w[i] + hc[i];
@@ -882,3 +896,4 @@ pub fn parse_thresholds(text: &str) -> Result<Vec<(Label, f64)>> {
         })
         .collect()
 }
+
