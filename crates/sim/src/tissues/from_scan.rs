@@ -639,23 +639,56 @@ impl NestedBuilder<'_> {
         if near.is_empty() {
             return Ok(None);
         }
-        // The outside's grey at each voxel: the grey of the nearest outside voxel not touching
-        // the tooth (those that do carry its blur), carried inward step by step.
-        let mut source = vec![f32::NAN; len];
+        // The outside at each voxel: the nearest outside voxel not touching the tooth (those that
+        // do carry its blur), carried inward step by step; it is air where the outside voxels
+        // about it read air (`Calibration::outside_of`: the tooth's blur reaches past the
+        // voxels beside it on a fine grid).
+        const NONE: u32 = u32::MAX;
+        let clear = |n: usize| outside(labels[n]) && steps[n] != u32::MAX && steps[n] >= 1;
+        let mut source = vec![NONE; len];
         for &n in &near {
-            if outside(labels[n]) && steps[n] >= 1 {
-                source[n] = self.scan.values[n];
+            if clear(n) {
+                source[n] = n as u32;
                 queue.push_back(n);
             }
         }
         while let Some(n) = queue.pop_front() {
             for m in face_neighbours(n, dims).into_iter().flatten() {
-                if steps[m] != u32::MAX && source[m].is_nan() {
+                if steps[m] != u32::MAX && source[m] == NONE {
                     source[m] = source[n];
                     queue.push_back(m);
                 }
             }
         }
+        let air: Vec<bool> = {
+            use rayon::prelude::*;
+            let ny = dims[1];
+            (0..len)
+                .into_par_iter()
+                .map(|n| {
+                    if !clear(n) {
+                        return false;
+                    }
+                    let (ci, cj, ck) = ((n % nx) as i64, ((n / nx) % ny) as i64, (n / (nx * ny)) as i64);
+                    let mut grey: Vec<f32> = Vec::with_capacity(125);
+                    for dk in -2i64..=2 {
+                        for dj in -2i64..=2 {
+                            for di in -2i64..=2 {
+                                let (x, y, z) = (ci + di, cj + dj, ck + dk);
+                                if x < 0 || y < 0 || z < 0 || x >= nx as i64 || y >= ny as i64 || z >= dims[2] as i64 {
+                                    continue;
+                                }
+                                let m = x as usize + nx * (y as usize + ny * z as usize);
+                                if clear(m) {
+                                    grey.push(self.scan.values[m]);
+                                }
+                            }
+                        }
+                    }
+                    cal.outside_of(&mut grey, &[Label::Air, Label::SoftTissue]) == Some(Label::Air)
+                })
+                .collect()
+        };
         // Signed distances (mm, negative inside) of the voxels' centres from the tooth's surface.
         let values = field::GridField { dims, index_to_world: self.scan.index_to_world(), values: tooth_field };
         let surface = field::level_set_from_field_with(&values, field::Kernel::CubicBSpline, 0.5, h, PROFILE_VOXELS + 1.0)?;
@@ -687,13 +720,14 @@ impl NestedBuilder<'_> {
         let by_bone = within_box(bone_grey, dims, reach as usize);
         let by_other: Vec<bool> = by_other.iter().zip(&by_bone).map(|(a, b)| *a || *b).collect();
         let outside_grey = |n: usize| -> Option<(f64, bool)> {
-            let g = f64::from(source[n]);
-            if g.is_nan() {
+            let s = source[n];
+            if s == NONE {
                 return None;
             }
+            let g = f64::from(self.scan.values[s as usize]);
             // Bone beside the tooth is no outside the profile holds (its ligament is unknown).
             let bone = (g - g_bone).abs() < (g - g_soft).abs();
-            Some((if (g - g_air).abs() < (g - g_soft).abs() { g_air } else { g_soft }, bone))
+            Some((if air[s as usize] { g_air } else { g_soft }, bone))
         };
         // The edge profile: the tooth's share against the distance, where one hard tissue is near.
         let bins = (2.0 * PROFILE_VOXELS / PROFILE_BIN_VOXELS).round() as usize;
