@@ -12,7 +12,8 @@
 //! Inputs: scan, labels, the tissue and its surround, the calibration. The band is the surround
 //! within 3 voxels of the tissue, cut where any third label (enamel, bone, air) is nearer than the
 //! tissue, so that the third tissue's own blur stays out of the sum. Reference grey values: the
-//! surround's measured in the shell 4–8 voxels out; the tissue's where it is at least 3 voxels
+//! surround's measured in the shell 4–8 voxels out (its nearest voxels beyond 4 where that
+//! shell is thin); the tissue's where it is at least 3 voxels
 //! deep, else the calibration's, bounded on both sides by the voxels 2 deep (a thin pulp has no voxel free of the dentin's blur; its
 //! measured grey would be biased toward the dentin's and the volume with it). Noise averages
 //! out: the sum is not clamped to 0..1.
@@ -63,11 +64,9 @@ pub fn enclosed_volume(vol: &Volume, labels: &LabelVolume, tissue: Label, surrou
     let to_other = distance_mm(vol.dims, vol.spacing, &is_other);
     let depth = distance_mm(vol.dims, vol.spacing, &is_outside_tissue);
 
-    let grey = |keep: &dyn Fn(usize) -> bool| -> Vec<f32> { (0..vol.values.len()).filter(|&n| keep(n)).map(|n| vol.values[n]).collect() };
     let (tissue_grey, tissue_grey_measured) = reference_grey(vol, &is_tissue, &depth, h, cal.peak(tissue), cal.peak(surround));
     let (shell_in, shell_out) = ((BAND_VOXELS + 1.0) * h, (BAND_VOXELS + 5.0) * h);
-    let shell = grey(&|n| labels.labels[n] == s && (shell_in..=shell_out).contains(&to_tissue[n]) && to_other[n] >= BAND_VOXELS * h);
-    let surround_grey = if shell.len() >= MIN_REFERENCE_VOXELS { median(shell) } else { cal.peak(surround) };
+    let surround_grey = surround_reference(vol, labels, s, &to_tissue, &to_other, (shell_in, shell_out), BAND_VOXELS * h).unwrap_or_else(|| cal.peak(surround));
     let contrast = surround_grey - tissue_grey;
     // Apart by less than a percent of the surround's grey, fractions would be noise.
     let apart = contrast.abs() > 0.01 * surround_grey.abs().max(1.0);
@@ -81,6 +80,32 @@ pub fn enclosed_volume(vol: &Volume, labels: &LabelVolume, tissue: Label, surrou
         .map(|n| ((surround_grey - f64::from(vol.values[n])) / contrast, 1usize))
         .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     Some(PartialVolume { volume_mm3: sum * vol.voxel_volume_mm3(), tissue_grey, surround_grey, tissue_grey_measured, voxels })
+}
+
+/// The surround's own grey beside a tissue: the median of its voxels in a shell `shell` (mm from
+/// the tissue) clear of the band and of other tissues (`clear` mm). Where that shell holds too
+/// few (a thin root's dentin on anisotropic voxels: the family's 8-bit premolar's held 19, and
+/// the calibration's crown dentin, 2 grey below its root's, put its pulp at −7.6 %), the
+/// nearest such voxels beyond the shell's inner side make up the count; `None` when the surround
+/// has too few clear voxels at all.
+fn surround_reference(vol: &Volume, labels: &LabelVolume, s: u8, to_tissue: &[f32], to_other: &[f32], (shell_in, shell_out): (f32, f32), clear: f32) -> Option<f64> {
+    let candidates: Vec<(f32, f32)> = (0..vol.values.len())
+        .filter(|&n| labels.labels[n] == s && to_tissue[n] >= shell_in && to_other[n] >= clear)
+        .map(|n| (to_tissue[n], vol.values[n]))
+        .collect();
+    let within = candidates.iter().filter(|(d, _)| *d <= shell_out).count();
+    if within >= MIN_REFERENCE_VOXELS {
+        return Some(median(candidates.into_iter().filter(|(d, _)| *d <= shell_out).map(|(_, v)| v).collect()));
+    }
+    if candidates.len() < MIN_NEAR_PURE_VOXELS {
+        return None;
+    }
+    let mut nearest = candidates;
+    let take = nearest.len().min(MIN_REFERENCE_VOXELS);
+    if take < nearest.len() {
+        nearest.select_nth_unstable_by(take - 1, |a, b| a.0.total_cmp(&b.0));
+    }
+    Some(median(nearest[..take].iter().map(|(_, v)| *v).collect()))
 }
 
 /// The tissue's own grey and whether it was measured: the median of its voxels at least 3
@@ -223,6 +248,7 @@ impl Envelope {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::volume::SourceInfo;
 
     /// A canal 1.5 voxels in radius (a capsule) in dentin, voxel-averaged and blurred like a scan:
     /// the midpoint threshold loses a good part of it, the partial-volume measure does not.
@@ -242,6 +268,30 @@ mod tests {
         assert!(!measure.tissue_grey_measured, "no voxel of a 0.3 mm canal is free of the blur");
         assert!(counted / truth - 1.0 < -0.05, "the threshold loses the canal: {counted} vs {truth}");
         assert!((measure.volume_mm3 / truth - 1.0).abs() < 0.005, "{} vs {truth}", measure.volume_mm3);
+    }
+
+    /// A thin surround's shell holds too few voxels: its nearest clear voxels beyond make up the
+    /// count (the calibration's grey, read elsewhere in the tooth, is not its own); with enough in
+    /// the shell, it alone; with too few clear voxels at all, no reference.
+    #[test]
+    fn a_thin_shell_is_made_up_from_its_nearest_clear_voxels() {
+        let s = Label::Dentin as u8;
+        // (count, label, mm to the tissue, mm to another tissue, grey)
+        let reference = |layout: &[(usize, u8, f32, f32, f32)]| {
+            let voxels: Vec<(u8, f32, f32, f32)> = layout.iter().flat_map(|&(count, l, t, o, g)| std::iter::repeat_n((l, t, o, g), count)).collect();
+            let vol = Volume { dims: [voxels.len(), 1, 1], spacing: [0.3; 3], origin: [0.0; 3], direction: crate::volume::IDENTITY, values: voxels.iter().map(|v| v.3).collect(), source: SourceInfo::default() };
+            let mut labels = vol.label_volume();
+            labels.labels = voxels.iter().map(|v| v.0).collect();
+            let (to_tissue, to_other): (Vec<f32>, Vec<f32>) = voxels.iter().map(|v| (v.1, v.2)).unzip();
+            surround_reference(&vol, &labels, s, &to_tissue, &to_other, (0.9, 1.8), 0.6)
+        };
+        let (near_other, air) = ((100, s, 1.0, 0.2, 10.0), (1, Label::Air as u8, 9.0, 0.0, 10.0));
+        // 40 in the shell, 40 just beyond it, 200 far and darker (another part of the tooth).
+        assert_eq!(reference(&[(40, s, 1.0, 3.0, 169.0), (40, s, 2.0, 3.0, 169.0), (200, s, 5.0, 3.0, 150.0), near_other, air]), Some(169.0));
+        // 70 in the shell: they alone, however many lie beyond.
+        assert_eq!(reference(&[(70, s, 1.0, 3.0, 169.0), (300, s, 2.0, 3.0, 150.0), near_other, air]), Some(169.0));
+        // 10 clear voxels in all.
+        assert_eq!(reference(&[(10, s, 1.0, 3.0, 169.0), near_other, air]), None);
     }
 
     #[test]

@@ -12,15 +12,16 @@ fn every_fast_case_gives_the_tooth_near_its_true_tissues() {
         family::print(&r);
         assert!(r.confidence >= dentsim_cbct::calibrate::MIN_CONFIDENCE);
         for t in &r.tissues {
-            // measured on these cases: enamel ≤ 7.1 % (the tilted incisor in the jaw), dentin
-            // ≤ 4.4 %, pulp ≤ 23.5 % (a canine's pulp in water, 0.3 mm), surfaces ≤ 0.082 mm,
-            // normals ≤ 20.2° (before the surface was placed by grey: 23.4°, 0.094 mm)
+            // measured on these cases (2026-11-28): enamel ≤ 1.9 % (the tilted incisor in the
+            // jaw), dentin ≤ 2.9 % (the 3-root molar in air), pulp ≤ 5.1 % (the premolar in wax;
+            // the 8-bit premolar's read 7.6 % while its thin roots' dentin shell fell back on the
+            // calibration's crown dentin grey), surfaces ≤ 0.041 mm, normals ≤ 10.5°
             let volume = match t.label {
-                dentsim_cbct::Label::Enamel => 0.08,
-                dentsim_cbct::Label::Dentin => 0.05,
-                _ => 0.26,
+                dentsim_cbct::Label::Enamel => 0.025,
+                dentsim_cbct::Label::Dentin => 0.035,
+                _ => 0.065,
             };
-            if t.volume_error.abs() > volume || t.surface_mm > 0.09 || t.normal_deg > 22.0 {
+            if t.volume_error.abs() > volume || t.surface_mm > 0.05 || t.normal_deg > 11.5 {
                 failures.push(format!("{}: {} {:+.1}% {:.3} mm {:.1}°", r.name, t.label.name(), 100.0 * t.volume_error, t.surface_mm, t.normal_deg));
             }
         }
