@@ -4,7 +4,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 use dentsim_devices::{Device, DeviceState, Fault, HandParams, SimulatedHand};
-use dentsim_sim::session::log::{SessionLog, FLAG_DEVICE_FAULT};
+use dentsim_sim::session::log::{SessionLog, FLAG_DEVICE_FAULT, FLAG_MISSED};
 use dentsim_sim::session::threads::{run_session, SessionOptions};
 use dentsim_sim::tissues::capsule::CapsuleTooth;
 use dentsim_sim::tissues::table::TissueTable;
@@ -134,4 +134,61 @@ fn a_paused_session_renders_no_force_and_logs_nothing_then_resumes() {
     let gap = log.records.windows(2).position(|w| w[1].tick > w[0].tick + 1).expect("a gap where the pause was");
     let after = log.records[gap + 1..].iter().map(|r| r.force.length()).fold(0.0, f64::max);
     assert!(after > 0.1, "pressing again after the pause: max {after} N");
+}
+
+/// Stalls its poll once, at `at_s`, as the OS preempting the haptic thread would.
+struct Stalling {
+    hand: SimulatedHand,
+    at_s: f64,
+    stalled: bool,
+}
+
+impl Device for Stalling {
+    fn poll(&mut self, t: f64) -> Result<DeviceState, Fault> {
+        if t >= self.at_s && !self.stalled {
+            self.stalled = true;
+            std::thread::sleep(std::time::Duration::from_millis(6));
+        }
+        self.hand.poll(t)
+    }
+    fn send_force(&mut self, force: DVec3, torque: DVec3) {
+        self.hand.send_force(force, torque)
+    }
+    fn finished(&self, t: f64) -> bool {
+        self.hand.finished(t)
+    }
+    fn name(&self) -> &str {
+        "stalling hand"
+    }
+}
+
+/// A 6 ms stall in real time: the loop runs the ticks it owes back to back, each late but less
+/// late than the last. The log holds them as missed, the watchdog takes them as the one miss (no
+/// trip unless the machine made other misses beside them), and replay, fed each tick's lateness
+/// from the log, renders every force as the session did.
+#[test]
+fn a_stalls_catch_up_is_one_miss_and_replays_bit_for_bit() {
+    let dir = tempfile::tempdir().unwrap();
+    let model = CapsuleTooth::default().build(0.08, &TissueTable::default()).unwrap();
+    let start = model.clone();
+    let hand = SimulatedHand::new(HandParams { start: DVec3::new(0.0, 0.0, 5.3), target: DVec3::new(0.0, 0.0, 3.0), duration_s: 0.8, ..Default::default() });
+    let dev = Stalling { hand, at_s: 0.5, stalled: false };
+    let path = dir.path().join("stall.dslog");
+    let options = SessionOptions { realtime: true, log_path: Some(path.clone()), mesher_hz: None, raise_priority: false, ..Default::default() };
+    let out = run_session(model, dev, options).unwrap();
+    let log = SessionLog::read(&path).unwrap();
+    let missed = |r: &dentsim_sim::session::log::TickRecord| r.flags & FLAG_MISSED != 0;
+    let stalled = log.records.iter().position(|r| r.t_s >= 0.5 - 1e-9).unwrap();
+    let run: Vec<f64> = log.records[stalled + 1..].iter().take_while(|r| missed(r)).map(|r| r.wall_s - r.t_s).collect();
+    assert!(run.len() >= 3, "the stall left at least three ticks late in a row: {run:?}");
+    let others = log.records.iter().enumerate().filter(|(i, r)| missed(r) && !(stalled + 1..=stalled + run.len()).contains(i)).count();
+    println!("catch-up {} ticks late {:.2}..{:.2} ms; {others} other missed ticks; {} trips", run.len(), 1e3 * run[0], 1e3 * run[run.len() - 1], out.watchdog_trips);
+    // Tripped, the force would ramp to zero over 50 ticks and stay there 200 more while the hand
+    // presses on; one miss leaves it as the contact makes it.
+    let force = |i: usize| log.records[i].force.length();
+    let (before, after) = (force(stalled - 1), (stalled + run.len() + 1..stalled + run.len() + 150).map(force).fold(f64::INFINITY, f64::min));
+    println!("force {before:.2} N before the stall, at least {after:.2} N the 150 ticks after");
+    assert!(after > 0.5 * before && before > 0.3, "the force held through the catch-up: {before} N before, {after} N after");
+    let again = dentsim_sim::session::replay::replay(&log, start).unwrap();
+    assert_eq!((again.max_force_difference_n, again.ticks_cut_differently), (0.0, 0));
 }

@@ -12,3 +12,4 @@ pub use contact::{BurrSamples, ContactPoint, ContactQuery};
 pub use filter::FilterSpec;
 pub use guidance::{GuidanceParams, PulpClearance, THIN_DENTIN_MM};
 pub use tick::{HapticCore, HapticParams, TickOutput, CUT_TOLERANCE_MM, STROKE_CONTINUES_VOXELS, TOUCH_VOXELS};
+pub use watchdog::Deadline;

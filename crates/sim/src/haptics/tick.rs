@@ -16,7 +16,7 @@ use crate::haptics::filter::{clamp_length, FilterSpec, ForceFilter};
 use crate::haptics::force::{contact_force, ContactForce, Mechanics, MAX_TISSUES};
 use crate::haptics::guidance::{GuidanceParams, PulpClearance};
 use crate::haptics::proxy::Proxy;
-use crate::haptics::watchdog::{Watchdog, WatchdogParams};
+use crate::haptics::watchdog::{Deadline, Watchdog, WatchdogParams};
 use crate::tissues::model::TissueModel;
 
 /// How deep (mm) the proxy may rest in tissue in cut mode (see [`Proxy::follow_cut`]): rounding
@@ -242,9 +242,10 @@ impl HapticCore {
         self.proxy.position
     }
 
-    /// One tick. `missed_deadline` feeds the watchdog. Allocation-free, in cut mode once
+    /// One tick. `deadline` (a [`Deadline`], or whether it was missed) feeds the watchdog.
+    /// Allocation-free, in cut mode once
     /// [`prepare_cutting`](Self::prepare_cutting) has run.
-    pub fn tick(&mut self, model: &mut TissueModel, state: &DeviceState, missed_deadline: bool) -> Result<TickOutput> {
+    pub fn tick(&mut self, model: &mut TissueModel, state: &DeviceState, deadline: impl Into<Deadline>) -> Result<TickOutput> {
         self.ticks += 1;
         let dt = self.params.period_s;
         let pose = if state.pose.is_finite() { state.pose } else { DAffine3::from_translation(self.proxy.position) };
@@ -300,7 +301,7 @@ impl HapticCore {
 
         let max_force = self.params.profile.max_force_n;
         let filtered = self.filter.apply(clamp_length(raw.force, max_force));
-        out.gain = self.watchdog.update(missed_deadline);
+        out.gain = self.watchdog.update(deadline);
         out.force = clamp_length(filtered * out.gain, max_force);
         // Torque: same gain; bounded by the force limit times the lever arm.
         let lever = self.params.axis_point_mm.abs() + self.burr.bounding_radius();

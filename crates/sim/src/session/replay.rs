@@ -8,6 +8,7 @@ use glam::DVec3;
 
 use crate::error::{invalid, Result};
 use crate::haptics::tick::HapticCore;
+use crate::haptics::watchdog::Deadline;
 use crate::haptics::guidance::GUIDANCE_FLAGS;
 use crate::session::guidance::{GuidanceReport, GuidanceTracker};
 use crate::session::log::{SessionLog, FLAG_DEVICE_FAULT, FLAG_MISSED};
@@ -101,7 +102,7 @@ pub fn replay_until(log: &SessionLog, mut model: TissueModel, until: Option<u64>
             continue;
         }
         let state = DeviceState { pose: r.pose, buttons: r.buttons, rpm: r.rpm };
-        let out = core.tick(&mut model, &state, r.flags & FLAG_MISSED != 0)?;
+        let out = core.tick(&mut model, &state, Deadline::of(r.flags & FLAG_MISSED != 0, r.wall_s - r.t_s))?;
         max_diff = max_diff.max((out.force - r.force).length());
         cut_differently += u64::from(out.changed_voxels != r.changed_voxels);
         let same_clearance = out.clearance_mm.to_bits() == r.clearance_mm.to_bits();

@@ -34,6 +34,7 @@ use crate::cutting::sweep::Done;
 use crate::error::{invalid, Error, Result};
 use crate::haptics::force::MAX_TISSUES;
 use crate::haptics::tick::{HapticCore, HapticParams};
+use crate::haptics::watchdog::Deadline;
 use crate::session::guidance::{GuidanceReport, GuidanceTracker};
 use crate::session::log::{write_header, write_record, LogHeader, TickRecord, FLAG_CUT, FLAG_DEVICE_FAULT, FLAG_MISSED};
 use crate::tissues::model::{TissueModel, TissueVolumes};
@@ -545,7 +546,7 @@ fn haptic_loop<D: Device>(
             }
         };
         last = Some(state);
-        let out = core.tick(model, &state, missed);
+        let out = core.tick(model, &state, Deadline::of(missed, wall - t));
         let out = match out {
             Ok(o) => o,
             Err(e) => return Err(e),
