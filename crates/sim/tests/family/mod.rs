@@ -267,3 +267,56 @@ pub fn print_regions(case: &FamilyCase, voxel_mm: f64) -> Result<(), String> {
     }
     Ok(())
 }
+
+/// Where a tissue's volume error lies: the volume ours holds and the truth does not (+) and the
+/// truth holds and ours does not (−), mm³, by the truth's nearest interface, sampled on a
+/// `step` mm grid within our level set's band (errors past the band are not seen; the total
+/// beside the whole error says how much that leaves out). The phantom's distances are bounds
+/// in blended regions, so regions are told apart by which interface is nearer, not by how far.
+pub fn volume_regions(case: &FamilyCase, voxel_mm: f64, label: Label, step: f64) -> Result<Vec<(&'static str, f64, f64)>, String> {
+    let phantom = Phantom::new(&case.spec);
+    let scan = phantom.scan();
+    let fdi = phantom.tooth();
+    let request = TissuesFromScan { seed_mm: phantom.tooth_seed(fdi), fdi, voxel_size_mm: voxel_mm, ..Default::default() };
+    let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).map_err(|e| format!("{}: {e}", case.name))?;
+    let grid = &model.get(label.name()).ok_or("no tissue")?.grid;
+    let bg = grid.background();
+    let (lo, hi) = phantom.tooth_bounds(fdi).ok_or("no tooth")?;
+    let (lo, hi) = (DVec3::from(lo) - 0.5, DVec3::from(hi) + 0.5);
+    let n = ((hi - lo) / step).ceil().as_ivec3();
+    let names = ["pulp wall", "outer surface", "DEJ / enamel"];
+    let mut bins = [(0.0f64, 0.0f64); 3];
+    let mut reader = grid.reader();
+    let cell = step * step * step;
+    for k in 0..n.z {
+        for j in 0..n.y {
+            for i in 0..n.x {
+                let p = lo + DVec3::new(f64::from(i), f64::from(j), f64::from(k)) * step;
+                let v = reader.value(p);
+                if v.abs() >= 0.999 * bg {
+                    continue;
+                }
+                let sdf = |l: Label| phantom.tooth_sdf(fdi, l, p).unwrap_or(f64::INFINITY);
+                let truth_in = sdf(label) < 0.0;
+                let ours_in = v < 0.0;
+                if truth_in == ours_in {
+                    continue;
+                }
+                let (pulp, tooth) = (sdf(Label::Pulp).abs(), sdf(Label::Air));
+                let region = if label != Label::Pulp && pulp < tooth.abs() && pulp < 0.3 {
+                    0
+                } else if tooth > -0.15 {
+                    1
+                } else {
+                    2
+                };
+                if ours_in {
+                    bins[region].0 += cell;
+                } else {
+                    bins[region].1 -= cell;
+                }
+            }
+        }
+    }
+    Ok(names.iter().zip(bins).map(|(n, (a, b))| (*n, a, b)).collect())
+}
