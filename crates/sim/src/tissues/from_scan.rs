@@ -367,6 +367,30 @@ const GREY_SIDE: f32 = 0.02;
 const FLOW_MM2: f64 = 0.016;
 
 /// Steps of at most 0.1 (stable) making up `time` (voxels²).
+/// The tissue outside the tooth about voxel `centre`, air or soft tissue, as
+/// [`Calibration::outside_of`] reads it from the grey of the voxels within 2 voxels that `clear`
+/// admits (not the tooth, nor the outside its blur brightens).
+fn outside_about(scan: &Volume, cal: &Calibration, centre: usize, clear: impl Fn(usize) -> bool) -> Option<Label> {
+    let [nx, ny, nz] = scan.dims;
+    let (ci, cj, ck) = ((centre % nx) as i64, ((centre / nx) % ny) as i64, (centre / (nx * ny)) as i64);
+    let mut grey: Vec<f32> = Vec::with_capacity(125);
+    for dk in -2i64..=2 {
+        for dj in -2i64..=2 {
+            for di in -2i64..=2 {
+                let (x, y, z) = (ci + di, cj + dj, ck + dk);
+                if x < 0 || y < 0 || z < 0 || x >= nx as i64 || y >= ny as i64 || z >= nz as i64 {
+                    continue;
+                }
+                let m = x as usize + nx * (y as usize + ny * z as usize);
+                if clear(m) {
+                    grey.push(scan.values[m]);
+                }
+            }
+        }
+    }
+    cal.outside_of(&mut grey, &[Label::Air, Label::SoftTissue])
+}
+
 fn flow_steps(time: f64) -> (usize, f32) {
     let steps = (time / 0.1).ceil().max(1.0) as usize;
     (steps, (time / steps as f64) as f32)
@@ -545,23 +569,8 @@ impl NestedBuilder<'_> {
                 // with the tooth's grey (molar phantom, point spread 0.2 mm: the crown's air read
                 // as soft tissue, its surface 0.026 mm inside, the tooth 9 mm³ small).
                 let outside_grey = |centre: usize| -> Option<f64> {
-                    let (ci, cj, ck) = ((centre % nx) as i64, ((centre / nx) % ny) as i64, (centre / (nx * ny)) as i64);
-                    let mut grey: Vec<f32> = Vec::with_capacity(125);
-                    for dk in -2i64..=2 {
-                        for dj in -2i64..=2 {
-                            for di in -2i64..=2 {
-                                let (x, y, z) = (ci + di, cj + dj, ck + dk);
-                                if x < 0 || y < 0 || z < 0 || x >= nx as i64 || y >= ny as i64 || z >= nz as i64 {
-                                    continue;
-                                }
-                                let m = x as usize + nx * (y as usize + ny * z as usize);
-                                if !inside[m] && !by_inside[m] && labels[m] <= Label::BoneCortical as u8 {
-                                    grey.push(values[m]);
-                                }
-                            }
-                        }
-                    }
-                    cal.outside_of(&mut grey, &[Label::Air, Label::SoftTissue]).map(|l| cal.peak(l))
+                    let clear = |m: usize| !inside[m] && !by_inside[m] && labels[m] <= Label::BoneCortical as u8;
+                    outside_about(self.scan, cal, centre, clear).map(|l| cal.peak(l))
                 };
                 let outside = |code: u8| code <= Label::BoneCortical as u8;
                 let hard = |code: u8| code == Label::Enamel as u8 || code == Label::Dentin as u8;
@@ -662,30 +671,13 @@ impl NestedBuilder<'_> {
         }
         let air: Vec<bool> = {
             use rayon::prelude::*;
-            let ny = dims[1];
             (0..len)
                 .into_par_iter()
                 .map(|n| {
                     if !clear(n) {
                         return false;
                     }
-                    let (ci, cj, ck) = ((n % nx) as i64, ((n / nx) % ny) as i64, (n / (nx * ny)) as i64);
-                    let mut grey: Vec<f32> = Vec::with_capacity(125);
-                    for dk in -2i64..=2 {
-                        for dj in -2i64..=2 {
-                            for di in -2i64..=2 {
-                                let (x, y, z) = (ci + di, cj + dj, ck + dk);
-                                if x < 0 || y < 0 || z < 0 || x >= nx as i64 || y >= ny as i64 || z >= dims[2] as i64 {
-                                    continue;
-                                }
-                                let m = x as usize + nx * (y as usize + ny * z as usize);
-                                if clear(m) {
-                                    grey.push(self.scan.values[m]);
-                                }
-                            }
-                        }
-                    }
-                    cal.outside_of(&mut grey, &[Label::Air, Label::SoftTissue]) == Some(Label::Air)
+                    outside_about(self.scan, cal, n, &clear) == Some(Label::Air)
                 })
                 .collect()
         };
