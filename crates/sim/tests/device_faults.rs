@@ -10,6 +10,10 @@ use dentsim_sim::tissues::capsule::CapsuleTooth;
 use dentsim_sim::tissues::table::TissueTable;
 use glam::DVec3;
 
+/// The sessions here run one at a time: beside another session on a 2-core machine, a real-time
+/// one's deadlines would be late for reasons the test does not make.
+static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
 /// Faults from `from_s` to `to_s`; counts the forces it is sent while faulted that are not zero.
 struct Flaky {
     hand: SimulatedHand,
@@ -47,6 +51,7 @@ impl Device for Flaky {
 
 #[test]
 fn a_fault_sends_zero_force_that_tick_and_the_session_goes_on() {
+    let _one_at_a_time = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
     let model = CapsuleTooth::default().build(0.05, &TissueTable::default()).unwrap();
     // Touch mode: the hand presses on the enamel (top at z = 5) with 1 N.
@@ -72,6 +77,7 @@ fn a_fault_sends_zero_force_that_tick_and_the_session_goes_on() {
 /// either, so every force and every cut comes out as logged.
 #[test]
 fn a_session_with_a_dropout_replays_bit_for_bit() {
+    let _one_at_a_time = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
     let model = CapsuleTooth::default().build(0.08, &TissueTable::default()).unwrap();
     let start = model.clone();
@@ -101,6 +107,7 @@ fn a_session_with_a_dropout_replays_bit_for_bit() {
 
 #[test]
 fn a_paused_session_renders_no_force_and_logs_nothing_then_resumes() {
+    let _one_at_a_time = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     use dentsim_sim::session::threads::Session;
     let dir = tempfile::tempdir().unwrap();
     let model = CapsuleTooth::default().build(0.08, &TissueTable::default()).unwrap();
@@ -168,6 +175,7 @@ impl Device for Stalling {
 /// from the log, renders every force as the session did.
 #[test]
 fn a_stalls_catch_up_is_one_miss_and_replays_bit_for_bit() {
+    let _one_at_a_time = ONE_AT_A_TIME.lock().unwrap_or_else(|e| e.into_inner());
     let dir = tempfile::tempdir().unwrap();
     let model = CapsuleTooth::default().build(0.08, &TissueTable::default()).unwrap();
     let start = model.clone();
