@@ -896,4 +896,3 @@ pub fn parse_thresholds(text: &str) -> Result<Vec<(Label, f64)>> {
         })
         .collect()
 }
-

@@ -448,7 +448,6 @@ fn thin_canals(g: &Grid, tooth: &[bool], vals: &[f32], outside: &[bool], cal: &C
 /// Least depth (mm) of a body of bone grey for it to be bone, not a blurred edge.
 const BONE_DEPTH_MM: f64 = 0.4;
 
-
 /// Each hard-tissue voxel's tooth (0 = none): the core eroded by ~0.6 mm, its components (the
 /// small ones dropped) regrown over the core.
 fn tooth_markers(g: &Grid, vol: &Volume, core: &[bool], opts: &SegmentOptions) -> (Vec<u32>, Vec<usize>) {

@@ -15,6 +15,7 @@ use glam::DVec3;
 static ONE_AT_A_TIME: std::sync::Mutex<()> = std::sync::Mutex::new(());
 
 /// Faults from `from_s` to `to_s`; counts the forces it is sent while faulted that are not zero.
+/// Its poll stalls once for 6 ms at `stall_at_s`, as the OS preempting the haptic thread would.
 struct Flaky {
     hand: SimulatedHand,
     from_s: f64,
@@ -22,10 +23,22 @@ struct Flaky {
     faulted: bool,
     nonzero_in_fault: Arc<AtomicU64>,
     sends_in_fault: Arc<AtomicU64>,
+    stall_at_s: f64,
+    stalled: bool,
+}
+
+impl Flaky {
+    fn new(hand: SimulatedHand, from_s: f64, to_s: f64) -> Self {
+        Flaky { hand, from_s, to_s, faulted: false, nonzero_in_fault: Arc::default(), sends_in_fault: Arc::default(), stall_at_s: f64::INFINITY, stalled: false }
+    }
 }
 
 impl Device for Flaky {
     fn poll(&mut self, t: f64) -> Result<DeviceState, Fault> {
+        if t >= self.stall_at_s && !self.stalled {
+            self.stalled = true;
+            std::thread::sleep(std::time::Duration::from_millis(6));
+        }
         self.faulted = t >= self.from_s && t < self.to_s;
         if self.faulted {
             return Err(Fault::Disconnected);
@@ -56,8 +69,8 @@ fn a_fault_sends_zero_force_that_tick_and_the_session_goes_on() {
     let model = CapsuleTooth::default().build(0.05, &TissueTable::default()).unwrap();
     // Touch mode: the hand presses on the enamel (top at z = 5) with 1 N.
     let hand = SimulatedHand::new(HandParams { start: DVec3::new(0.0, 0.0, 5.3), target: DVec3::new(0.0, 0.0, 3.0), duration_s: 1.5, ..Default::default() });
-    let (nonzero, sends) = (Arc::new(AtomicU64::new(0)), Arc::new(AtomicU64::new(0)));
-    let dev = Flaky { hand, from_s: 0.8, to_s: 0.9, faulted: false, nonzero_in_fault: nonzero.clone(), sends_in_fault: sends.clone() };
+    let dev = Flaky::new(hand, 0.8, 0.9);
+    let (nonzero, sends) = (dev.nonzero_in_fault.clone(), dev.sends_in_fault.clone());
     let log = dir.path().join("s.dslog");
     let options = SessionOptions { realtime: false, log_path: Some(log.clone()), mesher_hz: None, raise_priority: false, ..Default::default() };
     let out = run_session(model, dev, options).unwrap();
@@ -91,7 +104,7 @@ fn a_session_with_a_dropout_replays_bit_for_bit() {
         duration_s: 1.5,
         ..Default::default()
     });
-    let dev = Flaky { hand, from_s: 0.6, to_s: 0.75, faulted: false, nonzero_in_fault: Arc::default(), sends_in_fault: Arc::default() };
+    let dev = Flaky::new(hand, 0.6, 0.75);
     let path = dir.path().join("f.dslog");
     let options = SessionOptions { realtime: false, log_path: Some(path.clone()), mesher_hz: None, raise_priority: false, ..Default::default() };
     let out = run_session(model, dev, options).unwrap();
@@ -112,9 +125,8 @@ fn a_paused_session_renders_no_force_and_logs_nothing_then_resumes() {
     let dir = tempfile::tempdir().unwrap();
     let model = CapsuleTooth::default().build(0.08, &TissueTable::default()).unwrap();
     let hand = SimulatedHand::new(HandParams { start: DVec3::new(0.0, 0.0, 5.3), target: DVec3::new(0.0, 0.0, 3.0), duration_s: 1.0, ..Default::default() });
-    let (nonzero, sends) = (Arc::new(AtomicU64::new(0)), Arc::new(AtomicU64::new(0)));
     // Never faults: counts nothing; the pause is what is tested.
-    let dev = Flaky { hand, from_s: -1.0, to_s: -1.0, faulted: false, nonzero_in_fault: nonzero, sends_in_fault: sends };
+    let dev = Flaky::new(hand, -1.0, -1.0);
     let log = dir.path().join("p.dslog");
     let options = SessionOptions { realtime: true, log_path: Some(log.clone()), mesher_hz: None, raise_priority: false, ..Default::default() };
     let session = Session::start(model, dev, options).unwrap();
@@ -143,32 +155,6 @@ fn a_paused_session_renders_no_force_and_logs_nothing_then_resumes() {
     assert!(after > 0.1, "pressing again after the pause: max {after} N");
 }
 
-/// Stalls its poll once, at `at_s`, as the OS preempting the haptic thread would.
-struct Stalling {
-    hand: SimulatedHand,
-    at_s: f64,
-    stalled: bool,
-}
-
-impl Device for Stalling {
-    fn poll(&mut self, t: f64) -> Result<DeviceState, Fault> {
-        if t >= self.at_s && !self.stalled {
-            self.stalled = true;
-            std::thread::sleep(std::time::Duration::from_millis(6));
-        }
-        self.hand.poll(t)
-    }
-    fn send_force(&mut self, force: DVec3, torque: DVec3) {
-        self.hand.send_force(force, torque)
-    }
-    fn finished(&self, t: f64) -> bool {
-        self.hand.finished(t)
-    }
-    fn name(&self) -> &str {
-        "stalling hand"
-    }
-}
-
 /// A 6 ms stall in real time: the loop runs the ticks it owes back to back, each late but less
 /// late than the last. The log holds them as missed, the watchdog takes them as the one miss (no
 /// trip unless the machine made other misses beside them), and replay, fed each tick's lateness
@@ -180,7 +166,8 @@ fn a_stalls_catch_up_is_one_miss_and_replays_bit_for_bit() {
     let model = CapsuleTooth::default().build(0.08, &TissueTable::default()).unwrap();
     let start = model.clone();
     let hand = SimulatedHand::new(HandParams { start: DVec3::new(0.0, 0.0, 5.3), target: DVec3::new(0.0, 0.0, 3.0), duration_s: 0.8, ..Default::default() });
-    let dev = Stalling { hand, at_s: 0.5, stalled: false };
+    // Never faults; stalls once at 0.5 s.
+    let dev = Flaky { stall_at_s: 0.5, ..Flaky::new(hand, -1.0, -1.0) };
     let path = dir.path().join("stall.dslog");
     let options = SessionOptions { realtime: true, log_path: Some(path.clone()), mesher_hz: None, raise_priority: false, ..Default::default() };
     let out = run_session(model, dev, options).unwrap();

@@ -243,8 +243,7 @@ impl HapticCore {
     }
 
     /// One tick. `deadline` (a [`Deadline`], or whether it was missed) feeds the watchdog.
-    /// Allocation-free, in cut mode once
-    /// [`prepare_cutting`](Self::prepare_cutting) has run.
+    /// Allocation-free, in cut mode once [`prepare_cutting`](Self::prepare_cutting) has run.
     pub fn tick(&mut self, model: &mut TissueModel, state: &DeviceState, deadline: impl Into<Deadline>) -> Result<TickOutput> {
         self.ticks += 1;
         let dt = self.params.period_s;

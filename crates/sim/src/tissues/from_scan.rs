@@ -366,7 +366,6 @@ const GREY_SIDE: f32 = 0.02;
 /// Fixed in mm², not voxels², so coarse scans' walls are not rounded further than fine ones'.
 const FLOW_MM2: f64 = 0.016;
 
-/// Steps of at most 0.1 (stable) making up `time` (voxels²).
 /// The tissue outside the tooth about voxel `centre`, air or soft tissue, as
 /// [`Calibration::outside_of`] reads it from the grey of the voxels within 2 voxels that `clear`
 /// admits (not the tooth, nor the outside its blur brightens).
@@ -391,6 +390,7 @@ fn outside_about(scan: &Volume, cal: &Calibration, centre: usize, clear: impl Fn
     cal.outside_of(&mut grey, &[Label::Air, Label::SoftTissue])
 }
 
+/// Steps of at most 0.1 (stable) making up `time` (voxels²).
 fn flow_steps(time: f64) -> (usize, f32) {
     let steps = (time / 0.1).ceil().max(1.0) as usize;
     (steps, (time / steps as f64) as f32)
