@@ -13,12 +13,13 @@ fn every_fast_case_gives_the_tooth_near_its_true_tissues() {
         assert!(r.confidence >= dentsim_cbct::calibrate::MIN_CONFIDENCE);
         for t in &r.tissues {
             // measured on these cases (2026-11-28): enamel ≤ 1.9 % (the tilted incisor in the
-            // jaw), dentin ≤ 2.9 % (the 3-root molar in air), pulp ≤ 5.1 % (the premolar in wax;
+            // jaw, the canine in water), dentin ≤ 1.5 % (the canine in water; 2.9 % for the
+            // 3-root molar in air before the scanner's blur was undone), pulp ≤ 5.1 % (the premolar in wax;
             // the 8-bit premolar's read 7.6 % while its thin roots' dentin shell fell back on the
             // calibration's crown dentin grey), surfaces ≤ 0.041 mm, normals ≤ 10.5°
             let volume = match t.label {
                 dentsim_cbct::Label::Enamel => 0.025,
-                dentsim_cbct::Label::Dentin => 0.035,
+                dentsim_cbct::Label::Dentin => 0.02,
                 _ => 0.065,
             };
             if t.volume_error.abs() > volume || t.surface_mm > 0.05 || t.normal_deg > 11.5 {

@@ -31,6 +31,58 @@ impl TriMesh {
             .sum()
     }
 
+    /// The integral of the mean curvature H = (κ₁ + κ₂)/2 over a closed surface, mm (positive
+    /// where convex): half the sum over edges of length × dihedral angle. Edges not shared by
+    /// exactly two triangles add nothing.
+    pub fn total_mean_curvature(&self) -> f64 {
+        self.total_mean_curvature_where(|_| true)
+    }
+
+    /// [`Self::total_mean_curvature`] over the edges whose midpoint `keep` admits.
+    pub fn total_mean_curvature_where(&self, keep: impl Fn(glam::DVec3) -> bool) -> f64 {
+        let p = |i: u32| self.points[i as usize].as_dvec3();
+        // Per undirected edge: its first triangle's directed edge (a, b) and far corner c, the
+        // second's far corner d, and how many triangles share it (a third: non-manifold).
+        struct Edge {
+            a: u32,
+            b: u32,
+            c: u32,
+            d: u32,
+            shared: u8,
+        }
+        // In the triangles' order, so the sum is the same on every run.
+        let mut edges: Vec<Edge> = Vec::with_capacity(self.triangles.len() * 3 / 2);
+        let mut index: std::collections::HashMap<(u32, u32), usize> = std::collections::HashMap::with_capacity(edges.capacity());
+        for tri in &self.triangles {
+            for e in 0..3 {
+                let (a, b, c) = (tri[e], tri[(e + 1) % 3], tri[(e + 2) % 3]);
+                let i = *index.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                    edges.push(Edge { a, b, c, d: u32::MAX, shared: 0 });
+                    edges.len() - 1
+                });
+                let edge = &mut edges[i];
+                if edge.shared == 1 {
+                    edge.d = c;
+                }
+                edge.shared += 1;
+            }
+        }
+        edges
+            .iter()
+            .filter(|e| e.shared == 2 && keep(0.5 * (p(e.a) + p(e.b))))
+            .map(|e| {
+                let (pa, pb, pc, pd) = (p(e.a), p(e.b), p(e.c), p(e.d));
+                let edge = pb - pa;
+                let n1 = edge.cross(pc - pa).normalize_or_zero();
+                let n2 = (pa - pb).cross(pd - pb).normalize_or_zero();
+                let angle = n1.cross(n2).length().atan2(n1.dot(n2));
+                // Convex where the second triangle's far corner lies behind the first's plane.
+                let sign = if (pd - pa).dot(n1) < 0.0 { 1.0 } else { -1.0 };
+                0.5 * edge.length() * angle * sign
+            })
+            .sum()
+    }
+
     pub(crate) fn from_buffers(m: crate::sys::ffi::MeshBuffers) -> Self {
         let vec3s = |v: &[f32]| v.chunks_exact(3).map(Vec3::from_slice).collect::<Vec<_>>();
         TriMesh {

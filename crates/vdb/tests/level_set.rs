@@ -53,6 +53,23 @@ fn sphere_volume_from_mesh_within_one_percent() {
 }
 
 #[test]
+fn total_mean_curvature_of_a_sphere_and_a_torus() {
+    // ∫H dA: 4πr for a sphere; 2π²R for a torus, whose inner half (concave across) takes away.
+    let r = 2.0;
+    let sphere = sphere(DVec3::ZERO, r).to_mesh().total_mean_curvature();
+    assert!((sphere / (4.0 * PI * r) - 1.0).abs() < 0.01, "sphere {sphere} vs {}", 4.0 * PI * r);
+    let (major, minor) = (2.0, 0.6);
+    let torus = LevelSet::from_sdf(H, HALF_WIDTH, DVec3::new(-2.7, -2.7, -0.7), DVec3::new(2.7, 2.7, 0.7), |p| {
+        (DVec3::new(p.x, p.y, 0.0).length() - major).hypot(p.z) - minor
+    })
+    .unwrap()
+    .to_mesh()
+    .total_mean_curvature();
+    let exact = 2.0 * PI * PI * major;
+    assert!((torus / exact - 1.0).abs() < 0.01, "torus {torus} vs {exact}");
+}
+
+#[test]
 fn our_sdf_builder_matches_openvdb_sphere() {
     let ours = sphere(DVec3::new(1.0, 0.0, 0.0), 1.5);
     let theirs = LevelSet::sphere(DVec3::new(1.0, 0.0, 0.0), 1.5, H, HALF_WIDTH).unwrap();
