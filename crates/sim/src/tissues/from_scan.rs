@@ -1455,10 +1455,6 @@ mod tests {
     const TOOTH: (DVec3, f64) = (DVec3::new(4.65, 4.65, 4.65), 3.0);
     const CORE: (DVec3, f64) = (DVec3::new(4.65, 4.65, 3.95), 2.7);
 
-    /// Where the cap is thinner than two voxels the two-tissue midpoint reads it as dentin, and
-    /// the core's surface runs out to the tooth's. Read against the scan's own edge profile, the
-    /// hidden enamel is enamel again and the core's surface under the thin cap comes closer to
-    /// the true one, its normals too.
     /// A Gaussian-blurred step's profile, binned as the edge profile is, gives back its σ, on
     /// any voxel; a profile that never crosses a half gives none.
     #[test]
@@ -1473,6 +1469,10 @@ mod tests {
         assert_eq!(profile_blur(&vec![Some(1.0); bins], 0.3), None);
     }
 
+    /// Where the cap is thinner than two voxels the two-tissue midpoint reads it as dentin, and
+    /// the core's surface runs out to the tooth's. Read against the scan's own edge profile, the
+    /// hidden enamel is enamel again and the core's surface under the thin cap comes closer to
+    /// the true one, its normals too.
     #[test]
     fn the_core_sees_the_enamel_the_outside_hides() {
         let (scan, labels, calibration) = cap_scan();

@@ -320,3 +320,50 @@ pub fn volume_regions(case: &FamilyCase, voxel_mm: f64, label: Label, step: f64)
     }
     Ok(names.iter().zip(bins).map(|(n, (a, b))| (*n, a, b)).collect())
 }
+
+/// TEMP: volumes by sampling vs integrated truth.
+pub fn check_volumes(case: &FamilyCase, voxel_mm: f64, step: f64) {
+    let phantom = Phantom::new(&case.spec);
+    let scan = phantom.scan();
+    let fdi = phantom.tooth();
+    let request = TissuesFromScan { seed_mm: phantom.tooth_seed(fdi), fdi, voxel_size_mm: voxel_mm, ..Default::default() };
+    let (model, _) = request.run(&scan, &TissueTable::default(), &mut |_, _| {}).unwrap();
+    let truth = phantom.tooth_volumes_mm3(fdi);
+    for label in [Label::Enamel, Label::Dentin] {
+        let grid = &model.get(label.name()).unwrap().grid;
+        let (lo, hi) = phantom.tooth_bounds(fdi).unwrap();
+        let (lo, hi) = (DVec3::from(lo) - 0.5, DVec3::from(hi) + 0.5);
+        let n = ((hi - lo) / step).ceil().as_ivec3();
+        let mut reader = grid.reader();
+        let cell = step * step * step;
+        let (mut t, mut o, tl) = (0.0, 0.0, 0.0);
+        let mut deep: Vec<DVec3> = Vec::new();
+        for k in 0..n.z {
+            for j in 0..n.y {
+                for i in 0..n.x {
+                    let p = lo + DVec3::new(f64::from(i), f64::from(j), f64::from(k)) * step;
+                    if phantom.tooth_sdf(fdi, label, p).unwrap_or(1.0) < 0.0 { t += cell; }
+                    let v = reader.value(p);
+                    if v < 0.0 { o += cell; }
+                    if v <= -0.999 * grid.background() && phantom.tooth_sdf(fdi, label, p).unwrap_or(1.0) >= 0.0 {
+                        deep.push(p);
+                    }
+                }
+            }
+        }
+        if !deep.is_empty() {
+            let c = deep.iter().copied().sum::<DVec3>() / deep.len() as f64;
+            let (mut a, mut b) = (DVec3::splat(1e9), DVec3::splat(-1e9));
+            for p in &deep { a = a.min(*p); b = b.max(*p); }
+            let core = deep.iter().filter(|p| phantom.tooth_sdf(fdi, Label::Dentin, **p).unwrap_or(1.0) < 0.0).count();
+            for q in [c, a, b, DVec3::new(c.x, c.y, a.z - 0.1), DVec3::new(c.x, c.y, b.z + 0.1)] {
+                let vals: Vec<String> = [Label::Enamel, Label::Dentin, Label::Pulp].iter().map(|l| format!("{} ours {:.3} truth {:.3}", l.name(), model.get(l.name()).unwrap().grid.reader().value(q), phantom.tooth_sdf(fdi, *l, q).unwrap())).collect();
+                println!("    at {q:.2}: {}", vals.join(", "));
+            }
+            let line: Vec<String> = (0..30).map(|i| { let z = a.z - 0.5 + 0.2 * i as f64; format!("{z:.1}:{:.2}", phantom.tooth_sdf(fdi, Label::Dentin, DVec3::new(c.x, c.y, z)).unwrap()) }).collect();
+            println!("    dentin along z: {}", line.join(" "));
+            println!("  deep wrong {}: {:.2} mm³ ({} in true dentin), centre {c:.2}, box {a:.2}..{b:.2}; tooth {lo:.1}..{hi:.1}", label.name(), deep.len() as f64 * cell, core);
+        }
+        println!("  {}: integrated truth {:.2}, sampled truth sdf {:.2} label {:.2}, ours grid {:.2} mesh {:.2} sampled {:.2}", label.name(), truth[label as usize], t, tl, grid.volume(), grid.to_mesh().volume(), o);
+    }
+}
