@@ -12,9 +12,10 @@ fn every_fast_case_gives_the_tooth_near_its_true_tissues() {
         family::print(&r);
         assert!(r.confidence >= dentsim_cbct::calibrate::MIN_CONFIDENCE);
         for t in &r.tissues {
-            // measured on these cases (2026-11-28): enamel ≤ 1.9 % (the tilted incisor in the
-            // jaw, the canine in water), dentin ≤ 1.5 % (the canine in water; 2.9 % for the
-            // 3-root molar in air before the scanner's blur was undone), pulp ≤ 5.1 % (the premolar in wax;
+            // measured on these cases (2026-11-28): enamel ≤ 1.8 % (the tilted incisor in the
+            // jaw; the canine in water's read 1.9 % while a lobe of its dentin was made enamel),
+            // dentin ≤ 1.3 % (the tilted incisor; 2.9 % for the 3-root molar in air before the
+            // scanner's blur was undone), pulp ≤ 5.1 % (the premolar in wax;
             // the 8-bit premolar's read 7.6 % while its thin roots' dentin shell fell back on the
             // calibration's crown dentin grey), surfaces ≤ 0.041 mm, normals ≤ 10.5°
             let volume = match t.label {

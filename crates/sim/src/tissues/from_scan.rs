@@ -1112,6 +1112,10 @@ fn within_box(mut mask: Vec<bool>, dims: [usize; 3], radius: usize) -> Vec<bool>
 /// touching no enamel are not the tooth (bone at the alveolar crest, next to the root): as enamel
 /// they were a skirt around the root (the jaw's lower molar, ideal scan: 4.7 mm³ of enamel
 /// 2 mm below the true enamel's edge, most of its triangles with normals > 20° off).
+/// Kept: a body of [`MIN_ENCLOSED_BODY`] voxels or more that only the tooth's tissues touch. No
+/// mix of enamel with the outside makes it, so it is the dentin's, cut off by a neck thinner
+/// than the scan resolves (the family's canines: a lobe of dentin under the cusp, 1.9 mm long
+/// and 4.2 mm³, pinched to 0.03 mm below the pulp horn, was made enamel: enamel +1.9 %).
 fn keep_largest_component(labels: &mut dentsim_cbct::LabelVolume, label: Label, replacement: Label, elsewhere: Label) -> usize {
     let [nx, ny, nz] = labels.dims;
     let code = label as u8;
@@ -1139,21 +1143,30 @@ fn keep_largest_component(labels: &mut dentsim_cbct::LabelVolume, label: Label, 
         sizes.push(size);
     }
     let Some(largest) = (0..sizes.len()).max_by_key(|&c| sizes[c]) else { return 0 };
-    let mut touches = vec![false; sizes.len()];
+    let tooth = |c: u8| matches!(Label::from_u8(c), Some(Label::Enamel | Label::Dentin | Label::Pulp | Label::Caries | Label::Metal));
+    let (mut touches, mut enclosed) = (vec![false; sizes.len()], vec![true; sizes.len()]);
     for (n, &c) in component.iter().enumerate() {
-        if c != u32::MAX && c != largest as u32 && !touches[c as usize] {
-            touches[c as usize] = face_neighbours(n, [nx, ny, nz]).into_iter().flatten().any(|m| labels.labels[m] == replacement as u8);
+        if c != u32::MAX && c != largest as u32 {
+            let (c, neighbours) = (c as usize, face_neighbours(n, [nx, ny, nz]));
+            touches[c] |= neighbours.iter().flatten().any(|&m| labels.labels[m] == replacement as u8);
+            // The scan's edge is no enclosure.
+            enclosed[c] &= neighbours.iter().all(|m| m.is_some_and(|m| tooth(labels.labels[m])));
         }
     }
+    let kept = |c: usize| c == largest || (enclosed[c] && sizes[c] >= MIN_ENCLOSED_BODY);
     let mut moved = 0;
     for (l, c) in labels.labels.iter_mut().zip(&component) {
-        if *l == code && *c != largest as u32 {
+        if *l == code && !kept(*c as usize) {
             *l = if touches[*c as usize] { replacement } else { elsewhere } as u8;
             moved += 1;
         }
     }
     moved
 }
+
+/// The fewest voxels (a 3³ block) of a body of dentin's grey enclosed by the tooth that
+/// [`keep_largest_component`] keeps as dentin.
+const MIN_ENCLOSED_BODY: usize = 27;
 
 /// The world position of the scan's central voxel.
 fn centre_of(scan: &Volume) -> [f64; 3] {
@@ -1454,6 +1467,43 @@ mod tests {
     }
     const TOOTH: (DVec3, f64) = (DVec3::new(4.65, 4.65, 4.65), 3.0);
     const CORE: (DVec3, f64) = (DVec3::new(4.65, 4.65, 3.95), 2.7);
+
+    /// Dentin apart from the main body: a speck on the enamel or at the air becomes enamel, a
+    /// speck touching neither the bone it is; a body of 27 voxels or more that only the tooth
+    /// touches stays dentin, one that reaches the air does not.
+    #[test]
+    fn only_enclosed_bodies_of_dentin_stay_apart_from_the_main_one() {
+        let dims = [24, 12, 12];
+        let mut labels = dentsim_cbct::LabelVolume { dims, spacing: [0.3; 3], origin: [0.0; 3], direction: dentsim_cbct::volume::IDENTITY, labels: vec![Label::Air as u8; 24 * 12 * 12] };
+        let at = |i: usize, j: usize, k: usize| i + 24 * (j + 12 * k);
+        let fill = |labels: &mut dentsim_cbct::LabelVolume, lo: [usize; 3], hi: [usize; 3], label: Label| {
+            for k in lo[2]..hi[2] {
+                for j in lo[1]..hi[1] {
+                    for i in lo[0]..hi[0] {
+                        labels.labels[at(i, j, k)] = label as u8;
+                    }
+                }
+            }
+        };
+        fill(&mut labels, [1, 1, 1], [23, 11, 11], Label::Enamel);
+        fill(&mut labels, [2, 2, 2], [8, 10, 10], Label::Dentin); // the main body: 6·8·8
+        fill(&mut labels, [10, 3, 3], [13, 6, 6], Label::Dentin); // enclosed, 3³: kept
+        fill(&mut labels, [15, 3, 3], [17, 4, 4], Label::Dentin); // enclosed speck, 2: enamel
+        fill(&mut labels, [18, 6, 7], [23, 10, 11], Label::Dentin); // 5·4·4 reaching the air: enamel
+        labels.labels[at(0, 0, 0)] = Label::Dentin as u8; // a speck off the tooth: bone
+        let before = labels.labels.clone();
+        let moved = keep_largest_component(&mut labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
+        assert_eq!(moved, 2 + 80 + 1);
+        assert!((0..labels.labels.len()).filter(|&n| before[n] == Label::Dentin as u8).all(|n| {
+            let (i, j, k) = (n % 24, (n / 24) % 12, n / 288);
+            let expected = match i {
+                0 => Label::BoneCortical,
+                2..=7 | 10..=12 => Label::Dentin,
+                _ => Label::Enamel,
+            };
+            labels.labels[at(i, j, k)] == expected as u8
+        }));
+    }
 
     /// A Gaussian-blurred step's profile, binned as the edge profile is, gives back its σ, on
     /// any voxel; a profile that never crosses a half gives none.
