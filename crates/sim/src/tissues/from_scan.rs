@@ -596,8 +596,8 @@ impl NestedBuilder<'_> {
     /// is its measured `pulp_grey`, the calibration's prediction being off by up to a third of
     /// the pulp/dentin contrast on the family). The midpoint contour the segmentation decided each
     /// voxel by then runs through the voxels at sub-voxel positions, and the scan grid's terraces
-    /// go. The field stays on each voxel's side of 0.5, so no voxel changes side and thin walls
-    /// keep their topology.
+    /// go. The pulp's border takes the voxels beside those too. The field stays on each voxel's
+    /// side of 0.5, so no voxel changes side and thin walls keep their topology.
     fn place_by_grey(&self, field: &mut [f32], inside: &[bool], pulp_grey: Option<f64>, dentin_share: Option<&[f32]>) {
         use rayon::prelude::*;
         let [nx, ny, nz] = self.scan.dims;
@@ -618,15 +618,48 @@ impl NestedBuilder<'_> {
             .into_par_iter()
             .map(|m| !inside[m] && face_neighbours(m, [nx, ny, nz]).into_iter().flatten().any(|q| inside[q]))
             .collect();
+        const NONE: u8 = u8::MAX;
+        let majority = |counts: &[u8; 16]| (0..16).max_by_key(|&c| counts[c]).filter(|&c| counts[c] > 0).map_or(NONE, |c| c as u8);
+        let across: Vec<u8> = (0..field.len())
+            .into_par_iter()
+            .map(|n| {
+                let mut counts = [0u8; 16];
+                for m in face_neighbours(n, [nx, ny, nz]).into_iter().flatten().filter(|&m| inside[m] != inside[n]) {
+                    counts[(labels[m] as usize).min(15)] += 1;
+                }
+                majority(&counts)
+            })
+            .collect();
+        // The pulp's border takes a second ring of voxels each side, each with the partner of
+        // the border voxel beside it: a pulp is small on the scale of the scanner's blur, which
+        // spreads its edge over more than a voxel, so those voxels still hold a share of the other
+        // tissue where the blurred labels would say 0.92 or 0.08; with their grey the field
+        // follows the scan's smooth edge (the family's pulp normals: 18 of 20 better by up to
+        // 0.7°, none worse by more than 0.1°). Not the tooth's: beside a root, the second ring
+        // out reads the bone's blur (the tilted jaw incisor's dentin +1.3 → +3.1 %), and the
+        // enamels fell 0.2–0.8 %.
+        let rings = if pulp_grey.is_some() { 2 } else { 1 };
+        let mut partners = across;
+        for _ in 1..rings {
+            let next: Vec<u8> = (0..field.len())
+                .into_par_iter()
+                .map(|n| {
+                    if partners[n] != NONE {
+                        return partners[n];
+                    }
+                    let mut counts = [0u8; 16];
+                    for m in face_neighbours(n, [nx, ny, nz]).into_iter().flatten().filter(|&m| inside[m] == inside[n] && partners[m] != NONE) {
+                        counts[(partners[m] as usize).min(15)] += 1;
+                    }
+                    majority(&counts)
+                })
+                .collect();
+            partners = next;
+        }
         let updates: Vec<(usize, f32)> = (0..field.len())
             .into_par_iter()
             .filter_map(|n| {
-                let neighbours = face_neighbours(n, [nx, ny, nz]);
-                let mut counts = [0u8; 16];
-                for m in neighbours.into_iter().flatten().filter(|&m| inside[m] != inside[n]) {
-                    counts[(labels[m] as usize).min(15)] += 1;
-                }
-                let partner = (0..16).max_by_key(|&c| counts[c]).filter(|&c| counts[c] > 0)? as u8;
+                let partner = Some(partners[n]).filter(|&p| p != NONE)?;
                 // Outside the tooth, which tissue is there is read as segmentation reads it
                 // (`Calibration::outside_of`): from the grey of the outside voxels within 2
                 // voxels, air or soft tissue (a class label there may be partial volume of the
@@ -1393,17 +1426,18 @@ mod tests {
         let by_labels = builder.union(&[Label::Pulp], None).unwrap().unwrap();
         let mut by_grey = builder.pulp(Some(measure.tissue_grey)).unwrap().unwrap();
         let (labels_deg, grey_deg) = (chamber_normal_error(&by_labels), chamber_normal_error(&by_grey));
-        // Measured: labels 7.25°, grey 1.46°.
+        // Measured: labels 7.25°, grey 1.30° (1.46° with the grey of the border's first ring of
+        // voxels alone).
         println!("chamber normals: labels {labels_deg:.2}°, grey {grey_deg:.2}°");
-        assert!(grey_deg < 0.5 * labels_deg, "grey {grey_deg:.2}° vs labels {labels_deg:.2}°");
-        // After the fit, in the usual band (measured 3.10°: the fit moves the surface 1.5 model
+        assert!(grey_deg < 0.19 * labels_deg, "grey {grey_deg:.2}° vs labels {labels_deg:.2}°");
+        // After the fit, in the usual band (measured 2.77°, 3.10° with the first ring alone: the fit moves the surface 1.5 model
         // voxels along distances the band's far voxels hold less exactly; re-tracking gave 2.33°,
         // and over the fast family the pulps' normals came out alike, 0.2° either way).
         let fit = builder.fit_pulp(&mut by_grey, Some(measure)).unwrap().unwrap();
         assert_eq!(by_grey.background(), by_labels.background(), "the band is the usual one after the fit");
         let fitted_deg = chamber_normal_error(&by_grey);
         println!("chamber normals after the fit {fitted_deg:.2}° (offset {:+.3} mm)", fit.offset_mm);
-        assert!(fitted_deg < 0.5 * labels_deg, "fitted {fitted_deg:.2}° vs labels {labels_deg:.2}°");
+        assert!(fitted_deg < 0.4 * labels_deg, "fitted {fitted_deg:.2}° vs labels {labels_deg:.2}°");
         // The canal stays open: on each slice below the chamber where the labels hold more than
         // its tip (a voxel), the level set is inside at their voxel centres' deepest.
         let [nx, ny, nz] = scan.dims;
