@@ -9,7 +9,7 @@
 //! `regions`: where the enamel's and dentin's normal error lies (DEJ, thin cervical enamel, outer
 //! surface, root, pulp wall), ours against the sampled resolution floor's. `volumes`: where each
 //! tissue's volume error lies (mm³ ours holds and the truth not, and the reverse) by the truth's
-//! nearest interface (pulp wall, outer surface, DEJ), sampled on a 0.025 mm grid.
+//! nearest interface (pulp wall, outer surface, DEJ), or past our band, sampled on a 0.025 mm grid.
 #[path = "../tests/family/mod.rs"]
 mod family;
 

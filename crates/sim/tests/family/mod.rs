@@ -270,9 +270,9 @@ pub fn print_regions(case: &FamilyCase, voxel_mm: f64) -> Result<(), String> {
 
 /// Where a tissue's volume error lies: the volume ours holds and the truth does not (+) and the
 /// truth holds and ours does not (−), mm³, by the truth's nearest interface, sampled on a
-/// `step` mm grid within our level set's band (errors past the band are not seen; the total
-/// beside the whole error says how much that leaves out). The phantom's distances are bounds
-/// in blended regions, so regions are told apart by which interface is nearer, not by how far.
+/// `step` mm grid over the tooth's box; what lies past our level set's band (a body of one
+/// tissue read as another whole) is its own bin. The phantom's distances are bounds in blended
+/// regions, so regions are told apart by which interface is nearer, not by how far.
 pub fn volume_regions(case: &FamilyCase, voxel_mm: f64, label: Label, step: f64) -> Result<Vec<(&'static str, f64, f64)>, String> {
     let phantom = Phantom::new(&case.spec);
     let scan = phantom.scan();
@@ -284,8 +284,8 @@ pub fn volume_regions(case: &FamilyCase, voxel_mm: f64, label: Label, step: f64)
     let (lo, hi) = phantom.tooth_bounds(fdi).ok_or("no tooth")?;
     let (lo, hi) = (DVec3::from(lo) - 0.5, DVec3::from(hi) + 0.5);
     let n = ((hi - lo) / step).ceil().as_ivec3();
-    let names = ["pulp wall", "outer surface", "DEJ / enamel"];
-    let mut bins = [(0.0f64, 0.0f64); 3];
+    let names = ["pulp wall", "outer surface", "DEJ / enamel", "past our band"];
+    let mut bins = [(0.0f64, 0.0f64); 4];
     let mut reader = grid.reader();
     let cell = step * step * step;
     for k in 0..n.z {
@@ -293,9 +293,13 @@ pub fn volume_regions(case: &FamilyCase, voxel_mm: f64, label: Label, step: f64)
             for i in 0..n.x {
                 let p = lo + DVec3::new(f64::from(i), f64::from(j), f64::from(k)) * step;
                 let v = reader.value(p);
-                if v.abs() >= 0.999 * bg {
+                // Past the band, every fourth sample along each axis stands for its 4³ (the
+                // phantom's distance is the cost).
+                let past = v.abs() >= 0.999 * bg;
+                if past && (i % 4 != 0 || j % 4 != 0 || k % 4 != 0) {
                     continue;
                 }
+                let cell = if past { 64.0 * cell } else { cell };
                 let sdf = |l: Label| phantom.tooth_sdf(fdi, l, p).unwrap_or(f64::INFINITY);
                 let truth_in = sdf(label) < 0.0;
                 let ours_in = v < 0.0;
@@ -303,7 +307,9 @@ pub fn volume_regions(case: &FamilyCase, voxel_mm: f64, label: Label, step: f64)
                     continue;
                 }
                 let (pulp, tooth) = (sdf(Label::Pulp).abs(), sdf(Label::Air));
-                let region = if label != Label::Pulp && pulp < tooth.abs() && pulp < 0.3 {
+                let region = if past {
+                    3
+                } else if label != Label::Pulp && pulp < tooth.abs() && pulp < 0.3 {
                     0
                 } else if tooth > -0.15 {
                     1
