@@ -11,6 +11,11 @@ fn every_fast_case_gives_the_tooth_near_its_true_tissues() {
         let r = family::run(&case, 0.05).unwrap();
         family::print(&r);
         assert!(r.confidence >= dentsim_cbct::calibrate::MIN_CONFIDENCE);
+        // The scan's blur as made: a 0.15 mm point spread and each voxel's own averaging,
+        // σ = 0.167–0.173 mm on these voxels (read 0.154–0.161 mm).
+        let made = (case.spec.blur_sigma_mm.powi(2) + case.spec.spacing().iter().map(|s| s * s).sum::<f64>() / 36.0).sqrt();
+        let read = r.edge_blur_mm.unwrap_or(f64::NAN);
+        assert!((read / made - 1.0).abs() < 0.15, "{}: blur read {read:.3} mm, made {made:.3} mm", r.name);
         for t in &r.tissues {
             // measured on these cases (2026-11-28): enamel ≤ 1.8 % (the tilted incisor in the
             // jaw; the canine in water's read 1.9 % while a lobe of its dentin was made enamel),

@@ -73,6 +73,11 @@ pub struct ScanReport {
     pub dentin_specks_relabelled: usize,
     /// Dentin voxels on thin root canals taken as pulp ([`dentsim_cbct::canal`]).
     pub canal_voxels_traced: usize,
+    /// The scan's blur across the tooth's outer surface (σ, mm), read from its edge profile:
+    /// the tooth's and the dentin's outer surfaces are moved out for what it shrinks (away from
+    /// bone). Absent where the scan shows too little of the profile (then nothing is moved).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub edge_blur_mm: Option<f64>,
     pub calibration: Calibration,
     /// With every tooth segmented ([`TissuesFromScan::run_all`]): this tooth as found in the
     /// scan, and its place in the list (1 = largest).
@@ -254,7 +259,7 @@ impl TissuesFromScan {
         let source = format!("{} {}", scan.source.format, scan.source.path);
         let mut model = TissueModel::new(source, Some(self.fdi));
         let mut tissues = Vec::new();
-        let mut builder = NestedBuilder { scan: &tooth_scan, labels: &tooth_labels, calibration: &calibration, voxel_size_mm: self.voxel_size_mm, fits: Vec::new() };
+        let mut builder = NestedBuilder { scan: &tooth_scan, labels: &tooth_labels, calibration: &calibration, voxel_size_mm: self.voxel_size_mm, fits: Vec::new(), edge_blur_mm: None };
         let mut built = 0.0;
         let grids = builder.build(&mut |name| {
             built += 1.0;
@@ -291,6 +296,7 @@ impl TissuesFromScan {
             crop_max: region.max,
             dentin_specks_relabelled: specks,
             canal_voxels_traced: canal_voxels,
+            edge_blur_mm: builder.edge_blur_mm,
             warnings: pulp_warning(&tissues, &calibration).into_iter().collect(),
             calibration,
             found: None,
@@ -444,6 +450,8 @@ struct NestedBuilder<'a> {
     voxel_size_mm: f64,
     /// Surfaces fitted to their tissue's partial-volume measure.
     fits: Vec<(Label, VolumeFit)>,
+    /// The scan's blur the outer surface's edge profile showed, once built.
+    edge_blur_mm: Option<f64>,
 }
 
 #[derive(Clone, Debug)]
@@ -1034,6 +1042,7 @@ impl NestedBuilder<'_> {
         step("dentin")?;
         let (core, seen) = core?;
         step("enamel")?;
+        self.edge_blur_mm = seen.as_ref().and_then(|seen| seen.edge_blur_mm);
         let tooth = match tooth? {
             Some((mut tooth, Some(trilinear))) => {
                 self.settle(&mut tooth, &trilinear, seen.as_ref())?;
@@ -1421,7 +1430,7 @@ mod tests {
     #[test]
     fn the_pulp_placed_by_grey_has_its_normals_and_keeps_its_canal() {
         let (scan, labels, calibration, truth) = pulp_scan();
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new() };
+        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None };
         let measure = enclosed_volume(&scan, &labels, Label::Pulp, Label::Dentin, &calibration).unwrap();
         let by_labels = builder.union(&[Label::Pulp], None).unwrap().unwrap();
         let mut by_grey = builder.pulp(Some(measure.tissue_grey)).unwrap().unwrap();
@@ -1560,7 +1569,7 @@ mod tests {
     #[test]
     fn the_core_sees_the_enamel_the_outside_hides() {
         let (scan, labels, calibration) = cap_scan();
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new() };
+        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None };
         // The true cap's thickness over a point (the tooth's depth plus the core's distance).
         let thickness = |p: DVec3| (TOOTH.1 - p.distance(TOOTH.0)) + (p.distance(CORE.0) - CORE.1);
         let (tooth_field, ..) = builder.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap();
