@@ -29,16 +29,6 @@ fn main() {
         }
         return;
     }
-    if std::env::args().any(|a| a == "check") {
-        let only: Vec<String> = std::env::args().filter_map(|a| a.strip_prefix("only=").map(str::to_owned)).collect();
-        for case in dentsim_cbct::phantom::family(!quick) {
-            if only.iter().any(|o| case.name.contains(o.as_str())) {
-                println!("{}", case.name);
-                family::check_volumes(&case, 0.05, 0.025);
-            }
-        }
-        return;
-    }
     // `volumes`: where each tissue's volume error lies, by the truth's nearest interface.
     if std::env::args().any(|a| a == "volumes") {
         let only: Vec<String> = std::env::args().filter_map(|a| a.strip_prefix("only=").map(str::to_owned)).collect();

@@ -566,19 +566,23 @@ impl NestedBuilder<'_> {
     /// ligament, which moves the contour out by about as much (the family's teeth in the jaw,
     /// their roots corrected too in a trial: dentins up to +3.2 %; left alone −1.2…+1.6 %).
     fn settle(&self, grid: &mut LevelSet, trilinear: &Trilinear, seen: Option<&SeenUnderTheOutside>) -> Result<()> {
-        let area = trilinear.surface.area();
-        let blurred = seen.and_then(|seen| Some((seen.edge_blur_mm?, seen))).map_or(0.0, |(sigma, seen)| {
-            let grey = self.scan.spacing.iter().map(|s| (GREY_BLUR_VOXELS * s).powi(2)).sum::<f64>() / 3.0;
-            let [nx, ny, nz] = self.scan.dims;
-            let clear = |p: glam::DVec3| {
-                let Some(ijk) = self.scan.world_to_index(p.to_array()) else { return true };
-                let [i, j, k] = ijk.map(f64::round);
-                let outside = i < 0.0 || j < 0.0 || k < 0.0 || i >= nx as f64 || j >= ny as f64 || k >= nz as f64;
-                outside || !seen.beside_bone[i as usize + nx * (j as usize + ny * k as usize)]
-            };
-            (sigma * sigma + grey) * trilinear.surface.total_mean_curvature_where(clear)
-        });
-        self.keep_volume(trilinear.volume + blurred, area, grid)
+        let blurred = seen.map_or(0.0, |seen| self.blur_shrink(&trilinear.surface, seen));
+        self.keep_volume(trilinear.volume + blurred, trilinear.surface.area(), grid)
+    }
+
+    /// The volume (mm³) the blurs took from `surface`'s body away from bone: ∫σ²H dA
+    /// ([`Self::settle`]); nothing where the profile showed no blur.
+    fn blur_shrink(&self, surface: &TriMesh, seen: &SeenUnderTheOutside) -> f64 {
+        let Some(sigma) = seen.edge_blur_mm else { return 0.0 };
+        let grey = self.scan.spacing.iter().map(|s| (GREY_BLUR_VOXELS * s).powi(2)).sum::<f64>() / 3.0;
+        let [nx, ny, nz] = self.scan.dims;
+        let clear = |p: glam::DVec3| {
+            let Some(ijk) = self.scan.world_to_index(p.to_array()) else { return true };
+            let [i, j, k] = ijk.map(f64::round);
+            let outside = i < 0.0 || j < 0.0 || k < 0.0 || i >= nx as f64 || j >= ny as f64 || k >= nz as f64;
+            outside || !seen.beside_bone[i as usize + nx * (j as usize + ny * k as usize)]
+        };
+        (sigma * sigma + grey) * surface.total_mean_curvature_where(clear)
     }
 
     /// Moves `grid`'s surface (of about `area` mm²) along its normals to enclose `target` mm³,
