@@ -84,6 +84,17 @@ impl Calibration {
         self.peaks.get(l.name()).copied().unwrap_or(self.hu_scale * l.typical_hu() + self.hu_offset)
     }
 
+    /// Whether the scan showed the tissue (its grey measured at a peak, or given), not only
+    /// predicted by the fit.
+    pub fn shows(&self, l: Label) -> bool {
+        self.measured.iter().any(|m| m == l.name())
+    }
+
+    /// Whether the scan showed bone of either kind.
+    pub fn shows_bone(&self) -> bool {
+        self.shows(Label::BoneCancellous) || self.shows(Label::BoneCortical)
+    }
+
     /// Midpoint between two tissues' grey values.
     pub fn mid(&self, a: Label, b: Label) -> f64 {
         0.5 * (self.peak(a) + self.peak(b))
@@ -402,7 +413,7 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
     let found = bodies(&found, d, e, &grid);
     let layered = from_layering(&found, padding, d, e);
     let by_order = match_in_order(&h, lo, bw, &found);
-    let outside_of = |c: &Calibration| -> Vec<(Label, f64)> { OUTSIDE.into_iter().filter(|l| c.measured.iter().any(|m| m == l.name())).map(|l| (l, c.peak(l))).collect() };
+    let outside_of = |c: &Calibration| -> Vec<(Label, f64)> { OUTSIDE.into_iter().filter(|&l| c.shows(l)).map(|l| (l, c.peak(l))).collect() };
     let agrees = by_order.filter(|c| (c.peak(Label::Dentin) - d).abs() <= tol && (c.peak(Label::Enamel) - e).abs() <= tol && outside_of(c) == outside_of(&layered));
     let mut cal = agrees.unwrap_or(layered);
     cal.confidence = confidence;
@@ -434,14 +445,18 @@ fn refusal(vol: &Volume, peaks: &str, why: &str, guess: Option<(f64, f64, f64)>)
 /// The medium the scan was taken in stays whatever its shape: the most frequent of them, and
 /// the lowest where its grey reaches the scan's border (air, or the wax or water a tooth lies in).
 fn bodies(found: &[Peak], d: f64, e: f64, grid: &Coarse) -> Vec<Peak> {
-    let below = |p: &Peak| p.grey < d - 0.25 * (e - d);
+    let cut = d - 0.25 * (e - d);
+    let below = |p: &Peak| p.grey < cut;
     let lower: Vec<Peak> = found.iter().copied().filter(below).collect();
     let medium = lower.iter().map(|p| p.count).fold(f64::NEG_INFINITY, f64::max);
+    // Only bodies outside the tooth: the pulp is one too, enclosed by the dentin, and its grey
+    // lies among the outside's (fine scans resolve it into a peak, which read as bone).
+    let outside = grid.outside(cut);
     let body = |i: usize| {
         let p = lower[i];
         let lo = if i == 0 { f64::NEG_INFINITY } else { 0.5 * (lower[i - 1].grey + p.grey) };
         let hi = lower.get(i + 1).map_or(0.5 * (p.grey + d), |q| 0.5 * (p.grey + q.grey));
-        p.count >= medium || (i == 0 && grid.reaches_border(lo, hi)) || grid.body_mm3(lo, hi) >= MIN_BODY_MM3
+        p.count >= medium || (i == 0 && grid.reaches_border(lo, hi)) || grid.body_mm3(lo, hi, &outside) >= MIN_BODY_MM3
     };
     let kept: Vec<bool> = (0..lower.len()).map(body).collect();
     let mut lower_kept = kept.into_iter();
@@ -563,9 +578,9 @@ impl Coarse {
     }
 
     /// Volume (mm³) of the voxels with grey in `lo..hi` whose 6 neighbours' is too.
-    fn body_mm3(&self, lo: f64, hi: f64) -> f64 {
+    fn body_mm3(&self, lo: f64, hi: f64, outside: &[bool]) -> f64 {
         let [nx, ny, nz] = self.dims;
-        let within = |n: usize| (lo..hi).contains(&f64::from(self.values[n]));
+        let within = |n: usize| outside[n] && (lo..hi).contains(&f64::from(self.values[n]));
         let count = (0..self.values.len())
             .into_par_iter()
             .filter(|&n| within(n) && crate::volume::face_neighbours(n, [nx, ny, nz]).iter().all(|m| m.map_or(true, within)))
