@@ -21,6 +21,8 @@ fn the_fast_family_is_calibrated_and_segmented() {
             assert!(off.abs() < 0.06, "{}: {} read at {:.0}, true {:.0}\n{:#?}", case.name, l.name(), cal.peak(l), grey(l), cal.evidence);
         }
         assert!(cal.confidence >= calibrate::MIN_CONFIDENCE, "{}: confidence {}", case.name, cal.confidence);
+        // Bone is read where the scan holds it, and nowhere else (the pulp is no bone).
+        assert_eq!(cal.shows_bone(), case.spec.medium == phantom::Medium::Jaw, "{}: measured {:?}", case.name, cal.measured);
         let fdi = ph.tooth();
         let opts = SegmentOptions { tooth: Some(ToothSelect { fdi, seed: ph.tooth_seed(fdi).unwrap(), bounds: None }), ..Default::default() };
         let seg = segment(&scan, &cal, &opts).unwrap();
