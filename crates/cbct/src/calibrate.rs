@@ -365,7 +365,7 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
     let mut thresholds: Vec<f64> = proposals.iter().map(|p| 0.5 * (p[0] + p[1])).collect();
     thresholds.sort_by(f64::total_cmp);
     thresholds.dedup();
-    let outsides: Vec<(f64, Vec<bool>)> = thresholds.iter().copied().zip(grid.outsides(&thresholds)).collect();
+    let outsides = grid.outsides(&thresholds);
     let mut tested: Vec<([f64; 3], Layering)> = proposals.par_iter().map(|&p| (p, grid.layering(p, &outsides))).collect();
     tested.sort_by(|a, b| b.1.score().total_cmp(&a.1.score()));
     let peaks_text = found.iter().map(|p| format!("{:.0}", p.grey)).collect::<Vec<_>>().join(", ");
@@ -442,25 +442,34 @@ fn refusal(vol: &Volume, peaks: &str, why: &str, guess: Option<(f64, f64, f64)>)
 /// tissue is a body: its grey (between the neighbouring peaks') fills whole neighbourhoods over
 /// at least [`MIN_BODY_MM3`]; a peak that fills none is the blur's mix at an edge or the
 /// storage's rounding (an 8-bit scan of a tooth in air shows such peaks where bone would be).
+/// Only whole neighbourhoods `outside` the tooth count (reached from the border through grey
+/// below the dentin's band): the pulp is a body too, enclosed by the dentin, and its grey (300 HU)
+/// lies among the outside's, nearer bone's; a scan that resolves it read it as bone.
 /// The medium the scan was taken in stays whatever its shape: the most frequent of them, and
 /// the lowest where its grey reaches the scan's border (air, or the wax or water a tooth lies in).
 fn bodies(found: &[Peak], d: f64, e: f64, grid: &Coarse) -> Vec<Peak> {
-    let cut = d - 0.25 * (e - d);
+    let cut = below_dentin(d, e);
     let below = |p: &Peak| p.grey < cut;
     let lower: Vec<Peak> = found.iter().copied().filter(below).collect();
     let medium = lower.iter().map(|p| p.count).fold(f64::NEG_INFINITY, f64::max);
-    // Only bodies outside the tooth: the pulp is one too, enclosed by the dentin, and its grey
-    // lies among the outside's (fine scans resolve it into a peak, which read as bone).
-    let outside = grid.outside(cut);
+    // (Its flood is serial: made only when a peak needs it.)
+    let outsides = std::cell::OnceCell::new();
     let body = |i: usize| {
+        let outside = || outsides.get_or_init(|| grid.outside(cut)).at(cut).expect("the threshold it was made for");
         let p = lower[i];
         let lo = if i == 0 { f64::NEG_INFINITY } else { 0.5 * (lower[i - 1].grey + p.grey) };
         let hi = lower.get(i + 1).map_or(0.5 * (p.grey + d), |q| 0.5 * (p.grey + q.grey));
-        p.count >= medium || (i == 0 && grid.reaches_border(lo, hi)) || grid.body_mm3(lo, hi, &outside) >= MIN_BODY_MM3
+        p.count >= medium || (i == 0 && grid.reaches_border(lo, hi)) || grid.body_mm3(lo, hi, outside()) >= MIN_BODY_MM3
     };
     let kept: Vec<bool> = (0..lower.len()).map(body).collect();
     let mut lower_kept = kept.into_iter();
     found.iter().copied().filter(|p| !below(p) || lower_kept.next().unwrap_or(true)).collect()
+}
+
+/// The grey below the dentin's band (dentin `d`, enamel `e`): peaks under it are the outside's
+/// (or the pulp's).
+fn below_dentin(d: f64, e: f64) -> f64 {
+    d - 0.25 * (e - d)
 }
 
 /// A calibration through the dentin and enamel read by layering: grey = a·HU + b through their
@@ -471,7 +480,7 @@ fn from_layering(found: &[Peak], padding: Option<f64>, d: f64, e: f64) -> Calibr
     let b = d - a * Label::Dentin.typical_hu();
     let outside = OUTSIDE;
     let mut taken: Vec<(Label, Peak)> = Vec::new();
-    let lower = found.iter().copied().filter(|p| p.grey < d - 0.25 * (e - d)).chain(padding.filter(|_| found.iter().all(|p| p.grey >= d - 0.25 * (e - d))).map(|g| Peak { grey: g, count: 0.0 }));
+    let lower = found.iter().copied().filter(|p| p.grey < below_dentin(d, e)).chain(padding.filter(|_| found.iter().all(|p| p.grey >= below_dentin(d, e))).map(|g| Peak { grey: g, count: 0.0 }));
     for p in lower {
         let hu = (p.grey - b) / a;
         let Some(&l) = outside.iter().min_by(|x, y| (x.typical_hu() - hu).abs().total_cmp(&(y.typical_hu() - hu).abs())) else { continue };
@@ -496,6 +505,32 @@ fn from_layering(found: &[Peak], padding: Option<f64>, d: f64, e: f64) -> Calibr
 
 /// The scan averaged in blocks of 1–5 voxels per axis to a grid of ≥ 0.3 mm: enough for enamel
 /// (1–2.5 mm) to show as a layer, few voxels to test proposals on, and block means for less noise.
+/// [`Coarse::outside`] at several thresholds: a voxel is outside at `thresholds[l]` where its
+/// level is at most `l`.
+struct Outsides {
+    thresholds: Vec<f64>,
+    level: Vec<u8>,
+}
+
+impl Outsides {
+    fn at(&self, threshold: f64) -> Option<Outside<'_>> {
+        self.thresholds.iter().position(|&t| t == threshold).map(|l| Outside { level: &self.level, l: l as u8 })
+    }
+}
+
+/// One threshold's outside of an [`Outsides`].
+#[derive(Clone, Copy)]
+struct Outside<'a> {
+    level: &'a [u8],
+    l: u8,
+}
+
+impl Outside<'_> {
+    fn has(&self, n: usize) -> bool {
+        self.level[n] <= self.l
+    }
+}
+
 struct Coarse {
     dims: [usize; 3],
     spacing: [f64; 3],
@@ -578,9 +613,9 @@ impl Coarse {
     }
 
     /// Volume (mm³) of the voxels with grey in `lo..hi` whose 6 neighbours' is too.
-    fn body_mm3(&self, lo: f64, hi: f64, outside: &[bool]) -> f64 {
+    fn body_mm3(&self, lo: f64, hi: f64, outside: Outside) -> f64 {
         let [nx, ny, nz] = self.dims;
-        let within = |n: usize| outside[n] && (lo..hi).contains(&f64::from(self.values[n]));
+        let within = |n: usize| outside.has(n) && (lo..hi).contains(&f64::from(self.values[n]));
         let count = (0..self.values.len())
             .into_par_iter()
             .filter(|&n| within(n) && crate::volume::face_neighbours(n, [nx, ny, nz]).iter().all(|m| m.map_or(true, within)))
@@ -605,15 +640,16 @@ impl Coarse {
     /// The medium (grey at most `t1`) around the tooth: reached from the grid's border through
     /// medium at least three voxels wide, then grown back by a voxel. Medium the tooth encloses
     /// (an empty pulp chamber, a canal open at the apex by less than that) is not.
-    fn outside(&self, t1: f64) -> Vec<bool> {
-        self.outsides(&[t1]).pop().unwrap_or_default()
+    fn outside(&self, t1: f64) -> Outsides {
+        self.outsides(&[t1])
     }
 
     /// [`Self::outside`] at each of `thresholds` (ascending). The media at rising thresholds are
     /// nested, so one pass serves them all: a voxel's level is the first threshold its grey is
     /// medium under, the floods of every level are filled at once
-    /// ([`mask::flood_levels_from_border`]), and each outside is read off the levels.
-    fn outsides(&self, thresholds: &[f64]) -> Vec<Vec<bool>> {
+    /// ([`mask::flood_levels_from_border`]), and each outside is read off the levels (one byte a
+    /// voxel for them all).
+    fn outsides(&self, thresholds: &[f64]) -> Outsides {
         let levels = thresholds.len().min(usize::from(u8::MAX - 1)) as u8;
         let thresholds = &thresholds[..usize::from(levels)];
         let level: Vec<u8> = self.values.par_iter().map(|&v| thresholds.iter().position(|&t| v as f64 <= t).map_or(levels, |l| l as u8)).collect();
@@ -623,8 +659,8 @@ impl Coarse {
         let reached = mask::flood_levels_from_border(self.dims, &wide, levels);
         // Reached, or beside a reached voxel (none past the border), and medium.
         let outside = mask::neighbour_map(self.dims, &reached, u8::MAX, |own, near| near.iter().fold(own, |a, &b| a.min(b)));
-        let outside: Vec<u8> = outside.par_iter().zip(&level).map(|(&r, &l)| r.max(l)).collect();
-        (0..levels).map(|l| outside.par_iter().map(|&o| o <= l).collect()).collect()
+        let level: Vec<u8> = outside.par_iter().zip(&level).map(|(&r, &l)| r.max(l)).collect();
+        Outsides { thresholds: thresholds.to_vec(), level }
     }
 
     /// Tests a proposal (medium, dentin, enamel): at each 6-neighbour contact of an enamel voxel
@@ -638,14 +674,14 @@ impl Coarse {
     /// pulp; the second alone misses outside medium walled in by bone in a jaw.
     /// `outsides` holds [`Self::outside`] by its threshold (proposals sharing a medium and a
     /// dentin share it; its flood is serial, so it is made once for each).
-    fn layering(&self, proposal: [f64; 3], outsides: &[(f64, Vec<bool>)]) -> Layering {
+    fn layering(&self, proposal: [f64; 3], outsides: &Outsides) -> Layering {
         let t1 = 0.5 * (proposal[0] + proposal[1]);
         let made;
-        let outside = match outsides.iter().find(|(t, _)| *t == t1) {
-            Some((_, o)) => o,
+        let outside = match outsides.at(t1) {
+            Some(o) => o,
             None => {
                 made = self.outside(t1);
-                &made
+                made.at(t1).expect("the threshold it was made for")
             }
         };
         let [a, b] = self.layerings(proposal, outside);
@@ -658,7 +694,7 @@ impl Coarse {
 
     /// Both readings of [`Self::layering`] in one pass over the grid: every medium voxel as the
     /// medium, and only the `outside` one.
-    fn layerings(&self, [m, d, e]: [f64; 3], outside: &[bool]) -> [Layering; 2] {
+    fn layerings(&self, [m, d, e]: [f64; 3], outside: Outside) -> [Layering; 2] {
         let (t1, t2) = (0.5 * (m + d), 0.5 * (d + e));
         let [nx, ny, nz] = self.dims;
         // The grid with a layer of BEYOND around it, so that walks and neighbours need no bounds
@@ -676,7 +712,7 @@ impl Coarse {
                     let n = i + nx * (j + ny * k);
                     let v = f64::from(self.values[n]);
                     slab[(i + 1) + px * (j + 1)] = if v <= t1 {
-                        if outside[n] {
+                        if outside.has(n) {
                             0
                         } else {
                             3
