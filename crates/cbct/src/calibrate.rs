@@ -503,8 +503,6 @@ fn from_layering(found: &[Peak], padding: Option<f64>, d: f64, e: f64) -> Calibr
     Calibration::build("tooth-layering+linear-fit", &measured, a, b)
 }
 
-/// The scan averaged in blocks of 1–5 voxels per axis to a grid of ≥ 0.3 mm: enough for enamel
-/// (1–2.5 mm) to show as a layer, few voxels to test proposals on, and block means for less noise.
 /// [`Coarse::outside`] at several thresholds: a voxel is outside at `thresholds[l]` where its
 /// level is at most `l`.
 struct Outsides {
@@ -531,6 +529,8 @@ impl Outside<'_> {
     }
 }
 
+/// The scan averaged in blocks of 1–5 voxels per axis to a grid of ≥ 0.3 mm: enough for enamel
+/// (1–2.5 mm) to show as a layer, few voxels to test proposals on, and block means for less noise.
 struct Coarse {
     dims: [usize; 3],
     spacing: [f64; 3],

@@ -1144,7 +1144,6 @@ fn thin_enamel_cut(tooth: &LevelSet, core: &LevelSet, thinnest_mm: f64) -> Resul
     Ok(per_leaf.concat())
 }
 
-/// Where `mask` holds within `radius` voxels along each axis (a box, separably).
 /// Relabels as the outside the tooth's voxels beside it that hold less than half of the hard
 /// tissue under them, peeling at most [`RIM_VOXELS`] layers: voxels with enamel within as many
 /// are read against the enamel's grey, the rest against the dentin's; returns how many.
@@ -1161,7 +1160,8 @@ fn peel_blurred_rim(scan: &Volume, labels: &mut dentsim_cbct::LabelVolume, cal: 
     let enamel_near = within_box(labels.labels.iter().map(|&c| c == Label::Enamel as u8).collect(), dims, reach);
     let (g_en, g_de) = (cal.peak(Label::Enamel), cal.peak(Label::Dentin));
     // Without bone in the scan, voxels of bone's grey are the blur's mix at the tooth's edge.
-    let outside_code = |c: u8| c <= if cal.shows_bone() { Label::SoftTissue } else { Label::BoneCortical } as u8;
+    let outside_top = if cal.shows_bone() { Label::SoftTissue } else { Label::BoneCortical } as u8;
+    let outside_code = |c: u8| c <= outside_top;
     let tooth_code = |c: u8| c == Label::Enamel as u8 || c == Label::Dentin as u8;
     let mut total = 0;
     for _ in 0..reach {
@@ -1195,6 +1195,7 @@ fn peel_blurred_rim(scan: &Volume, labels: &mut dentsim_cbct::LabelVolume, cal: 
 /// voxel against it (the family: 2 and 3 alike, 5 worse on the dentin's normals).
 const RIM_VOXELS: usize = 2;
 
+/// Where `mask` holds within `radius` voxels along each axis (a box, separably).
 fn within_box(mut mask: Vec<bool>, dims: [usize; 3], radius: usize) -> Vec<bool> {
     use rayon::prelude::*;
     for (axis, stride) in [(0usize, 1usize), (1, dims[0]), (2, dims[0] * dims[1])] {
