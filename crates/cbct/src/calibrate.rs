@@ -455,7 +455,7 @@ fn bodies(found: &[Peak], d: f64, e: f64, grid: &Coarse) -> Vec<Peak> {
     // (Its flood is serial: made only when a peak needs it.)
     let outsides = std::cell::OnceCell::new();
     let body = |i: usize| {
-        let outside = || outsides.get_or_init(|| grid.outside(cut)).at(cut).expect("the threshold it was made for");
+        let outside = || outsides.get_or_init(|| grid.outside(cut)).first();
         let p = lower[i];
         let lo = if i == 0 { f64::NEG_INFINITY } else { 0.5 * (lower[i - 1].grey + p.grey) };
         let hi = lower.get(i + 1).map_or(0.5 * (p.grey + d), |q| 0.5 * (p.grey + q.grey));
@@ -513,6 +513,11 @@ struct Outsides {
 impl Outsides {
     fn at(&self, threshold: f64) -> Option<Outside<'_>> {
         self.thresholds.iter().position(|&t| t == threshold).map(|l| Outside { level: &self.level, l: l as u8 })
+    }
+
+    /// The first threshold's (of [`Coarse::outside`]'s one).
+    fn first(&self) -> Outside<'_> {
+        Outside { level: &self.level, l: 0 }
     }
 }
 
@@ -681,7 +686,7 @@ impl Coarse {
             Some(o) => o,
             None => {
                 made = self.outside(t1);
-                made.at(t1).expect("the threshold it was made for")
+                made.first()
             }
         };
         let [a, b] = self.layerings(proposal, outside);
