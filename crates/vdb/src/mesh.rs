@@ -64,7 +64,7 @@ impl TriMesh {
                 if edge.shared == 1 {
                     edge.d = c;
                 }
-                edge.shared += 1;
+                edge.shared = edge.shared.saturating_add(1);
             }
         }
         edges

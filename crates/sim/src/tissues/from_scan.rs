@@ -585,7 +585,7 @@ impl NestedBuilder<'_> {
             let Some(ijk) = self.scan.world_to_index(p.to_array()) else { return true };
             let [i, j, k] = ijk.map(f64::round);
             let outside = i < 0.0 || j < 0.0 || k < 0.0 || i >= nx as f64 || j >= ny as f64 || k >= nz as f64;
-            outside || !seen.beside_bone[i as usize + nx * (j as usize + ny * k as usize)]
+            outside || !seen.beside_bone[self.scan.index(i as usize, j as usize, k as usize)]
         };
         (sigma * sigma + grey) * surface.total_mean_curvature_where(clear)
     }
