@@ -103,8 +103,9 @@ pub struct Sweep {
     runs_only: bool,
     /// With the last build in columns, its column runs (see [`Sweep::column_runs`]).
     column_runs: ColumnRuns,
-    /// Per k of the box, the tool frame's z axis times the voxel's z (see `fill_columns`).
-    z_terms: Vec<DVec3>,
+    /// Per k of the box, the tool frame's z axis times the voxel's z, its x components, then its
+    /// y, then its z (see `fill_columns`).
+    z_terms: Vec<f64>,
 }
 
 /// One row run's distances for a non-round head (see [`Sweep::build_in`]), voxel by voxel.
@@ -156,7 +157,7 @@ impl Sweep {
         let runs = &mut self.column_runs;
         runs.runs.reserve((12 * side as usize * side as usize).saturating_sub(runs.runs.len()));
         runs.values.reserve(total.saturating_sub(runs.values.len()));
-        self.z_terms.reserve((side as usize).saturating_sub(self.z_terms.len()));
+        self.z_terms.reserve((3 * side as usize).saturating_sub(self.z_terms.len()));
         self.rows.reserve(side as usize);
         // The sub-poses of a translation that long (rotation adds more; those still grow once).
         let poses = (travel_mm.max(0.0) / (2.0 * GAP_VOXELS * voxel)).ceil().min(MAX_SUBSTEPS as f64) as usize + 2;
@@ -817,7 +818,7 @@ struct ColumnBounds<'a> {
 /// cut-off are written (the patch holds the cut-off elsewhere), each widening its row's span,
 /// and each run's part from its first such value to its last goes to `runs` with its values (see
 /// [`Sweep::column_runs`]); with `runs_only`, only there.
-fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only): (&mut ColumnRuns, &mut Vec<DVec3>, bool), inv: &DAffine3, bounds: &ColumnBounds, (voxel, band, cutoff, moves): (f64, f64, f64, f64)) {
+fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only): (&mut ColumnRuns, &mut Vec<f64>, bool), inv: &DAffine3, bounds: &ColumnBounds, (voxel, band, cutoff, moves): (f64, f64, f64, f64)) {
     use crate::burr::profile::{Lanes, LANES};
     let (lo, [nx, ny, _]) = (patch.index_min, patch.dims.map(|d| d as usize));
     let hi = lo + IVec3::from_array(patch.dims.map(|d| d as i32)) - IVec3::ONE;
@@ -828,8 +829,15 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only):
     let deep_held = (-band - f64::from(DONE_SLACK) - 1e-6) as f32;
     let plane = nx * ny;
     // The origin's z term per k, once per build rather than per voxel (the same product).
+    // Apart by component, so that a run's lanes take their sums a vector at a time.
     z_terms.clear();
-    z_terms.extend((lo.z..=hi.z).map(|k| inv.matrix3.z_axis * (f64::from(k) * voxel)));
+    for axis in 0..3 {
+        z_terms.extend((lo.z..=hi.z).map(|k| (inv.matrix3.z_axis * (f64::from(k) * voxel))[axis]));
+    }
+    let depth = (hi.z - lo.z + 1) as usize;
+    let (z_x, rest) = z_terms.split_at(depth);
+    let (z_y, z_z) = rest.split_at(depth);
+    let shift = inv.translation;
     let mut out = [0f32; LANES];
     for i in lo.x..=hi.x {
         let x = f64::from(i) * voxel;
@@ -868,10 +876,16 @@ fn fill_columns(burr: &Burr, patch: &mut DensePatch, (runs, z_terms, runs_only):
                 while k <= b {
                     let n = ((b - k + 1) as usize).min(LANES);
                     let mut lanes = Lanes { t: [at as f32; LANES], ..Default::default() };
-                    let terms = &z_terms[(k - lo.z) as usize..(k - lo.z) as usize + n];
-                    for (l, term) in terms.iter().enumerate() {
-                        let origin = (across + *term + inv.translation).as_vec3();
-                        (lanes.x[l], lanes.y[l], lanes.z[l]) = (origin.x, origin.y, origin.z);
+                    // `(across + term + translation).as_vec3()`, component by component.
+                    let at_k = (k - lo.z) as usize;
+                    for (lane, term) in lanes.x[..n].iter_mut().zip(&z_x[at_k..at_k + n]) {
+                        *lane = ((across.x + term) + shift.x) as f32;
+                    }
+                    for (lane, term) in lanes.y[..n].iter_mut().zip(&z_y[at_k..at_k + n]) {
+                        *lane = ((across.y + term) + shift.y) as f32;
+                    }
+                    for (lane, term) in lanes.z[..n].iter_mut().zip(&z_z[at_k..at_k + n]) {
+                        *lane = ((across.z + term) + shift.z) as f32;
                     }
                     burr.sdf_lanes(&lanes, n, step, &mut out);
                     for (l, d) in out[..n].iter_mut().enumerate() {
