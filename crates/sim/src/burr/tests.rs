@@ -261,6 +261,39 @@ fn rows_of_distances_match_the_pointwise_distance() {
     }
 }
 
+/// The distance kernels as dispatched (AVX2 where the CPU has it) give the baseline build's
+/// values bit for bit, rows and lanes, through every head and near its surface (where the
+/// arithmetic's last bits decide the sign): replays must not depend on the machine.
+#[test]
+fn the_avx2_kernels_give_the_baseline_values_bit_for_bit() {
+    use super::profile::{Lanes, LANES};
+    let mut next = crate::unit_random(0x2545_f491_4f6c_dd1d);
+    let mut unit = || next() * 2.0 - 1.0;
+    let (mut row, mut baseline) = (vec![0f32; 77], vec![0f32; 77]);
+    let (mut lane_out, mut lane_base) = ([0f32; LANES], [0f32; LANES]);
+    for burr in every_burr().into_iter().chain(["flame_016", "pear_010", "inverted_cone_010", "taper_flat_012"].map(|s| Burr::parse(s).unwrap())) {
+        let profile = burr.head_profile();
+        let radius = burr.bounding_radius();
+        for _ in 0..300 {
+            let origin = DVec3::new(radius * unit(), radius * unit(), radius * unit() + burr.length_mm / 2.0).as_vec3().to_array();
+            let step = (DVec3::new(unit(), unit(), unit()).normalize_or_zero() * 0.05).as_vec3().to_array();
+            let first = (8.0 * (unit() + 1.0)) as usize;
+            profile.sdf_row_from(origin, step, first, &mut row);
+            profile.sdf_row_from_baseline(origin, step, first, &mut baseline);
+            assert_eq!(row.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), baseline.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), "{}: a row", burr.spec());
+            let mut lanes = Lanes::default();
+            for l in 0..LANES {
+                (lanes.x[l], lanes.y[l], lanes.z[l], lanes.t[l]) = (origin[0] + 0.05 * unit() as f32, origin[1], origin[2] + 0.05 * l as f32, first as f32);
+            }
+            for n in [LANES, 11, 7, 3] {
+                profile.sdf_lanes(&lanes, n, step, &mut lane_out);
+                profile.sdf_lanes_baseline(&lanes, n, step, &mut lane_base);
+                assert!(lane_out[..n].iter().zip(&lane_base[..n]).all(|(a, b)| a.to_bits() == b.to_bits()), "{}: {n} lanes", burr.spec());
+            }
+        }
+    }
+}
+
 /// Every point of the inner capsule lies at least the margin inside the head (sampled densely,
 /// caps included), and the capsule is not a sliver.
 #[test]
