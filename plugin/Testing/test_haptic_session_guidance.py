@@ -35,8 +35,11 @@ def state(source):
 
 
 hand = "start=0:0:5.6,target=0:0:1.0,push=2,pedal=1,rpm=400000,duration=3"
+# In real time: the first poll must see the burr still far from the pulp, and a session run as
+# fast as it goes could be 1 s of its ticks in (0.9 s brings the burr within reading range)
+# before ParaView's first poll answers.
 session = DentalHapticSession(PhantomVoxelSizemm=0.08, Device="Simulated hand", HandParameters=hand,
-                              ForceFilter="none", RealTime=0)
+                              ForceFilter="none", RealTime=1)
 seen = [state(session)]
 while seen[-1]["running"]:
     seen.append(state(session))
