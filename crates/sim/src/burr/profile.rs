@@ -308,7 +308,7 @@ impl Profile {
 
     /// [`Self::sdf_row_from`] for the baseline target (inlined into the AVX2 build).
     #[inline(always)]
-    pub fn sdf_row_from_baseline(&self, origin: [f32; 3], step: [f32; 3], first: usize, out: &mut [f32]) {
+    pub(crate) fn sdf_row_from_baseline(&self, origin: [f32; 3], step: [f32; 3], first: usize, out: &mut [f32]) {
         let Some((closing, pieces)) = self.edges32.split_last() else {
             out.fill(f32::INFINITY);
             return;
@@ -354,7 +354,7 @@ impl Profile {
 
     /// [`Self::sdf_lanes`] for the baseline target (inlined into the AVX2 build).
     #[inline(always)]
-    pub fn sdf_lanes_baseline(&self, lanes: &Lanes, n: usize, step: [f32; 3], out: &mut [f32]) {
+    pub(crate) fn sdf_lanes_baseline(&self, lanes: &Lanes, n: usize, step: [f32; 3], out: &mut [f32]) {
         let Some((closing, pieces)) = self.edges32.split_last() else {
             out[..n].fill(f32::INFINITY);
             return;
