@@ -126,12 +126,41 @@ impl Calibration {
             confidence: 1.0,
             evidence: vec![],
         };
-        cal.thresholds = PEAK_TISSUES
-            .windows(2)
-            .map(|w| Threshold { below: w[0].name().into(), above: w[1].name().into(), value: cal.mid(w[0], w[1]) })
-            .collect();
-        cal.thresholds.push(Threshold { below: "enamel".into(), above: "metal".into(), value: cal.mid(Label::Enamel, Label::Metal) });
+        cal.thresholds = cal.thresholds_between(&PEAK_TISSUES);
         cal
+    }
+
+    /// Class boundaries at the midpoints between `classes` (in increasing grey order), then
+    /// enamel's against metal.
+    fn thresholds_between(&self, classes: &[Label]) -> Vec<Threshold> {
+        let mut thresholds: Vec<Threshold> =
+            classes.windows(2).map(|w| Threshold { below: w[0].name().into(), above: w[1].name().into(), value: self.mid(w[0], w[1]) }).collect();
+        thresholds.push(Threshold { below: "enamel".into(), above: "metal".into(), value: self.mid(Label::Enamel, Label::Metal) });
+        thresholds
+    }
+
+    /// The same grey values with no bone classes between the medium and the dentin, for a scan
+    /// that shows no bone (a tooth alone in air, wax or water). There the grey the fit predicts
+    /// for bone is only the blur's mix of the tooth and the medium, and the hard-tissue
+    /// threshold at bone's midpoint with the dentin (~85 % of the way from the medium) can
+    /// take a thin apical wall, blurred darker, for the outside: the canal then opens to it
+    /// and the pulp is lost. Without bone the threshold is the medium's midpoint with the dentin.
+    pub fn without_bone(&self) -> Calibration {
+        let classes: Vec<Label> = PEAK_TISSUES.into_iter().filter(|l| !matches!(l, Label::BoneCancellous | Label::BoneCortical)).collect();
+        let mut cal = self.clone();
+        cal.thresholds = self.thresholds_between(&classes);
+        cal.evidence.push(format!(
+            "read without bone classes (the scan shows no bone): hard tissue above {:.1} instead of {:.1}",
+            cal.hard_cut(),
+            self.hard_cut()
+        ));
+        cal
+    }
+
+    /// The grey above which a voxel is hard tissue (dentin or enamel): the threshold under the
+    /// dentin's class.
+    pub fn hard_cut(&self) -> f64 {
+        self.thresholds.iter().find(|t| t.above == Label::Dentin.name()).map_or_else(|| self.mid(Label::BoneCortical, Label::Dentin), |t| t.value)
     }
 
     /// Background class of a grey value (air … enamel, metal) by the thresholds.

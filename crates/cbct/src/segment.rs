@@ -425,7 +425,7 @@ const CANAL_RIM_VOXELS: usize = 2;
 /// the tooth's own dentin and noise, without depending on where bone's grey lands.
 fn thin_canals(g: &Grid, tooth: &[bool], vals: &[f32], outside: &[bool], cal: &Calibration) -> Vec<bool> {
     let n = g.n();
-    let (hard_cut, enamel_cut) = (cal.mid(Label::BoneCortical, Label::Dentin), cal.mid(Label::Dentin, Label::Enamel));
+    let (hard_cut, enamel_cut) = (cal.hard_cut(), cal.mid(Label::Dentin, Label::Enamel));
     let deep = morph(g, &morph(g, tooth, false), false);
     let mut dentin: Vec<f32> = (0..n).filter(|&l| deep[l] && f64::from(vals[l]) <= enamel_cut).map(|l| vals[l]).collect();
     if dentin.len() < 64 {
@@ -791,7 +791,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     let pockets = if opts.detect_caries {
         // (Passed with the tooth in: the outline to close is the tooth's with its cavities.)
         let mut solid: Vec<bool> = (0..bn).map(|l| btooth[l] || candidates[l]).collect();
-        let pockets = open_lesions(&bx, &enamel, &near_enamel, &bvals, vol.spacing, &|v| lesion_grey(v) && v < cal.mid(Label::BoneCortical, Label::Dentin), &mut solid);
+        let pockets = open_lesions(&bx, &enamel, &near_enamel, &bvals, vol.spacing, &|v| lesion_grey(v) && v < cal.hard_cut(), &mut solid);
         for l in (0..bn).filter(|&l| solid[l] && !btooth[l]) {
             candidates[l] = true;
         }
@@ -822,7 +822,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     let dentin_ref = cal.peak(Label::Dentin);
     // (A thin canal's lining, darker than the dentin but above the hard-tissue threshold, is
     // left out here: it would lift the pulp's measured grey and with it its border.)
-    let hard_cut = cal.mid(Label::BoneCortical, Label::Dentin);
+    let hard_cut = cal.hard_cut();
     let deep = morph(&bx.g, &(0..bn).map(|l| bcavity[l] && !(canal[l] && f64::from(bvals[l]) > hard_cut)).collect::<Vec<bool>>(), false);
     let mut deep_vals: Vec<Vec<f32>> = vec![Vec::new(); nc];
     for l in (0..bn).filter(|&l| deep[l]) {

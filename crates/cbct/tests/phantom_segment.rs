@@ -85,6 +85,27 @@ fn calibration_recovers_the_scans_grey_mapping() {
 }
 
 #[test]
+fn a_reading_without_bone_has_no_bone_class_and_its_hard_cut_is_the_mediums_midpoint() {
+    // A tooth alone in air: air, dentin and enamel given; the fit predicts bone's grey.
+    let cal = Calibration::manual(&[(Label::Air, -1000.0), (Label::Dentin, 1650.0), (Label::Enamel, 2500.0)]).unwrap();
+    assert_eq!(cal.hard_cut(), cal.mid(Label::BoneCortical, Label::Dentin));
+    let bone_free = cal.without_bone();
+    assert!(bone_free.thresholds.iter().all(|t| !t.below.starts_with("bone") && !t.above.starts_with("bone")), "{:?}", bone_free.thresholds);
+    assert_eq!(bone_free.hard_cut(), bone_free.mid(Label::SoftTissue, Label::Dentin));
+    assert!(bone_free.hard_cut() < cal.hard_cut());
+    // Voxels of bone's predicted greys are the blur's mix: the darker (cancellous) the
+    // outside's, the brighter (cortical, past the medium's midpoint) the tooth's. The grey
+    // values themselves do not change, and the reading says what it did.
+    assert_eq!(cal.classify(cal.peak(Label::BoneCancellous)), Label::BoneCancellous);
+    assert_eq!(bone_free.classify(cal.peak(Label::BoneCancellous)), Label::SoftTissue);
+    assert_eq!(cal.classify(cal.peak(Label::BoneCortical)), Label::BoneCortical);
+    assert_eq!(bone_free.classify(cal.peak(Label::BoneCortical)), Label::Dentin);
+    assert_eq!(bone_free.classify(cal.peak(Label::Dentin)), Label::Dentin);
+    assert_eq!(bone_free.peaks, cal.peaks);
+    assert!(bone_free.evidence.last().is_some_and(|e| e.contains("without bone")), "{:?}", bone_free.evidence);
+}
+
+#[test]
 fn segmentation_accuracy_at_default_noise() {
     let ph = Phantom::new(&PhantomSpec::default());
     let scan = ph.scan();

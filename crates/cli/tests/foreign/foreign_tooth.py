@@ -7,8 +7,9 @@ pydicom (a DICOM series). Nothing here comes from dentsim's phantom.
 
 CASE: jaw (in bone and soft tissue, tilted 15 degrees, NIfTI; its root fused to the bone), socket
 (the same with a 0.3 mm ligament between the root and its socket), air (an extracted tooth on a wax
-block, in air, DICOM series, grey values signed and offset), or water (in water, anisotropic
-voxels, NIfTI). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+block, in air, DICOM series, grey values signed and offset), water (in water, anisotropic
+voxels, NIfTI), or incisor (an extracted incisor in air, its canal 0.4 mm from the root's side
+near the apex, DICOM series stored unsigned with a rescale slope and intercept). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -19,14 +20,14 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13, "socket": 14}[CASE])
+rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15}[CASE])
 JAW = CASE in ("jaw", "socket")
 
 # Grid in the tooth's own frame (mm): z along the tooth, occlusal up; fine grid for the truth and
 # the partial volume, averaged into the scan's voxels.
-spacing = {"jaw": (0.2, 0.2, 0.2), "socket": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3)}[CASE]
+spacing = {"jaw": (0.2, 0.2, 0.2), "socket": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3), "incisor": (0.2, 0.2, 0.2)}[CASE]
 FINE = 3  # sub-samples per voxel and axis
-extent = ((-7.0, 7.0), (-7.0, 7.0), (-16.0, 10.0))
+extent = ((-7.0, 7.0), (-7.0, 7.0), (-16.0, 12.0 if CASE == "incisor" else 10.0))  # the incisor's crown is 10 mm tall
 dims = [int(round((hi - lo) / s)) for (lo, hi), s in zip(extent, spacing)]
 
 
@@ -42,15 +43,24 @@ def superellipsoid(cx, cy, cz, a, b, c, p):
     return np.abs((x - cx) / a) ** p + np.abs((y - cy) / b) ** p + np.abs((z - cz) / c) ** p <= 1.0
 
 
-# Crown: a rounded box 10 x 9 x 8 mm, its cemento-enamel junction at z = 0; enamel 1.4 mm thick on
-# the sides and 1.8 mm over the occlusal table; the root a cone to its apex 13 mm down.
-crown = superellipsoid(0.0, 0.0, 3.0, 5.0, 4.5, 4.5, 2.6) & (z >= -0.5)
-core = superellipsoid(0.0, 0.0, 2.6, 3.6, 3.1, 3.9, 2.6)
 radius = lambda top, bottom: top + (bottom - top) * np.clip(-z / 13.0, 0.0, 1.0)  # noqa: E731
-root = ((x / radius(3.8, 0.9)) ** 2 + (y / radius(3.3, 0.8)) ** 2 <= 1.0) & (z <= 0.0) & (z >= -13.0)
+if CASE == "incisor":
+    # A chisel-shaped crown 8.6 x 6.6 x 10 mm over a root narrowing to 0.8 x 0.7 mm at its apex;
+    # the canal (0.8 mm wide) ends 1 mm above it, 0.4 mm from the root's side.
+    crown = superellipsoid(0.0, 0.0, 4.5, 4.3, 3.3, 5.5, 2.3) & (z >= -0.5)
+    core = superellipsoid(0.0, 0.0, 3.6, 3.3, 2.3, 4.7, 2.3)
+    root = ((x / radius(3.2, 0.8)) ** 2 + (y / radius(2.5, 0.7)) ** 2 <= 1.0) & (z <= 0.0) & (z >= -13.0)
+    chamber, canal_top, canal_radius = superellipsoid(0.0, 0.0, 3.0, 1.3, 0.8, 2.6, 2.0), 3.0, 0.4
+else:
+    # Crown: a rounded box 10 x 9 x 8 mm, its cemento-enamel junction at z = 0; enamel 1.4 mm
+    # thick on the sides and 1.8 mm over the occlusal table; the root a cone to its apex 13 mm down.
+    crown = superellipsoid(0.0, 0.0, 3.0, 5.0, 4.5, 4.5, 2.6) & (z >= -0.5)
+    core = superellipsoid(0.0, 0.0, 2.6, 3.6, 3.1, 3.9, 2.6)
+    root = ((x / radius(3.8, 0.9)) ** 2 + (y / radius(3.3, 0.8)) ** 2 <= 1.0) & (z <= 0.0) & (z >= -13.0)
+    chamber, canal_top, canal_radius = superellipsoid(0.0, 0.0, 2.2, 2.0, 1.7, 1.6, 2.2), 2.2, 0.35
 tooth = crown | root
 enamel = crown & ~core & (z >= 0.0)
-pulp = superellipsoid(0.0, 0.0, 2.2, 2.0, 1.7, 1.6, 2.2) | ((x ** 2 + y ** 2 <= 0.35 ** 2) & (z >= -12.0) & (z <= 2.2))
+pulp = chamber | ((x ** 2 + y ** 2 <= canal_radius ** 2) & (z >= -12.0) & (z <= canal_top))
 pulp &= tooth & ~enamel
 dentin = tooth & ~enamel & ~pulp
 
@@ -60,6 +70,7 @@ grey = {
     "socket": dict(air=-1000, soft=40, bone=1100, dentin=1900, enamel=3000, pulp=40, scale=1.0, offset=0),
     "air": dict(air=-1000, wax=-80, dentin=1750, enamel=2800, pulp=-1000, scale=0.6, offset=-300),
     "water": dict(air=-1000, water=0, dentin=1800, enamel=2900, pulp=0, scale=2.0, offset=5000),
+    "incisor": dict(air=-1000, dentin=1800, enamel=2900, pulp=40, scale=1.0, offset=0),
 }[CASE]
 if JAW:
     bone = (z <= -1.5) & (np.abs(x) <= 6.5) & (np.abs(y) <= 9.0)
@@ -70,6 +81,8 @@ if JAW:
     medium = np.where(bone, grey["bone"], np.where(z <= 3.0, grey["soft"], grey["air"]))
 elif CASE == "air":
     medium = np.where(z <= -9.0, grey["wax"], grey["air"]) + 0 * x * y  # root tip in a wax block
+elif CASE == "incisor":
+    medium = np.full((1, 1, 1), grey["air"]) + 0 * x * y * z
 else:
     medium = np.full((1, 1, 1), grey["water"]) + 0 * x * y * z
 values = np.where(enamel, grey["enamel"], np.where(dentin, grey["dentin"], np.where(pulp, grey["pulp"], medium)))
@@ -97,14 +110,19 @@ origin = rotation @ centre_of_first + shift
 inside = (rotation @ np.array([0.0, 0.0, -4.0]) + shift).tolist()  # in the root's dentin under the crown
 
 os.makedirs(OUT, exist_ok=True)
-if CASE == "air":
+if CASE in ("air", "incisor"):
     import pydicom
     from pydicom.dataset import FileDataset, FileMetaDataset
     from pydicom.uid import ExplicitVRLittleEndian, generate_uid
 
     path = os.path.join(OUT, "series")
     os.makedirs(path, exist_ok=True)
-    stored = np.clip(np.round(scan), -32768, 32767).astype(np.int16)
+    # The incisor's scanner stores unsigned values: HU = 0.5 * stored - 1024.
+    slope, intercept = (0.5, -1024.0) if CASE == "incisor" else (1.0, 0.0)
+    if CASE == "incisor":
+        stored = np.clip(np.round((scan - intercept) / slope), 0, 65535).astype(np.uint16)
+    else:
+        stored = np.clip(np.round(scan), -32768, 32767).astype(np.int16)
     series, study, frame = generate_uid(), generate_uid(), generate_uid()
     for k in range(dims[2]):
         meta = FileMetaDataset()
@@ -121,8 +139,8 @@ if CASE == "air":
         ds.SliceThickness = spacing[2]
         ds.Rows, ds.Columns = dims[1], dims[0]
         ds.SamplesPerPixel, ds.PhotometricInterpretation = 1, "MONOCHROME2"
-        ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 16, 16, 15, 1
-        ds.RescaleIntercept, ds.RescaleSlope = 0, 1
+        ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 16, 16, 15, int(stored.dtype == np.int16)
+        ds.RescaleIntercept, ds.RescaleSlope = intercept, slope
         ds.PixelData = np.ascontiguousarray(stored[:, :, k].T).tobytes()  # rows along y, columns along x
         ds.save_as(os.path.join(path, "slice%04d.dcm" % k), write_like_original=False)
 else:

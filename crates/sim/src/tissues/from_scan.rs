@@ -114,11 +114,19 @@ pub fn pulp_warning(tissues: &[SegmentedTissue], calibration: &Calibration) -> O
          with the grey of the medium around the tooth, the dentin and the enamel (e.g. --thresholds air={:.1},dentin={:.1},enamel={:.1})",
         calibration.peak(Label::Dentin),
         calibration.peak(Label::Enamel),
-        calibration.mid(Label::BoneCortical, Label::Dentin),
+        calibration.hard_cut(),
         calibration.peak(Label::Air),
         calibration.peak(Label::Dentin),
         calibration.peak(Label::Enamel),
     ))
+}
+
+/// Whether the tooth's labels hold no pulp, or one implausibly small ([`MIN_PULP_SHARE`] of
+/// the tooth's voxels).
+fn pulp_lost(labels: &dentsim_cbct::LabelVolume) -> bool {
+    let count = |l: Label| labels.labels.iter().filter(|&&c| c == l as u8).count() as f64;
+    let pulp = count(Label::Pulp);
+    pulp < MIN_PULP_SHARE * (pulp + count(Label::Enamel) + count(Label::Dentin))
 }
 
 #[derive(Clone, Debug, Default, Serialize)]
@@ -235,7 +243,7 @@ impl TissuesFromScan {
         side_by_side(teeth, teeth_at_once, one_tooth, &mut |i, step, f| go_on(&format!("tooth {}: {step}", i + 1), (i as f64 + f) / count))
     }
 
-    fn run_calibrated(&self, scan: &Volume, table: &TissueTable, calibration: Calibration, mut seconds: Timings, go_on: &mut dyn FnMut(&str, f64) -> bool) -> Result<(TissueModel, ScanReport)> {
+    fn run_calibrated(&self, scan: &Volume, table: &TissueTable, mut calibration: Calibration, mut seconds: Timings, go_on: &mut dyn FnMut(&str, f64) -> bool) -> Result<(TissueModel, ScanReport)> {
         let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
         step(go_on, "segmenting", 0.1)?;
         let clock = Instant::now();
@@ -244,7 +252,16 @@ impl TissuesFromScan {
             tooth: Some(ToothSelect { fdi: self.fdi, seed, bounds: self.bounds_mm }),
             ..SegmentOptions::default()
         };
-        let labels = segment(scan, &calibration, &options).map_err(cbct)?;
+        let mut labels = segment(scan, &calibration, &options).map_err(cbct)?;
+        // Without bone in the scan, a pulp lost at bone's threshold is read again without bone
+        // classes ([`Calibration::without_bone`]); the reading that finds it is kept.
+        if !calibration.shows_bone() && pulp_lost(&labels) {
+            let bone_free = calibration.without_bone();
+            let again = segment(scan, &bone_free, &options).map_err(cbct)?;
+            if !pulp_lost(&again) {
+                (labels, calibration) = (again, bone_free);
+            }
+        }
         seconds.segment = clock.elapsed().as_secs_f64();
 
         step(go_on, "cropping to the tooth", 0.4)?;
