@@ -503,14 +503,19 @@ fn below_dentin(d: f64, e: f64) -> f64 {
 
 /// A calibration through the dentin and enamel read by layering: grey = a·HU + b through their
 /// typical HU; every lower peak is the outside tissue (air, soft tissue, bone) nearest its
-/// implied HU (the most frequent peak where two land on one).
+/// implied HU (the most frequent peak where two land on one). The lowest is air or soft tissue:
+/// a crown stands in air, soft tissue, wax or water, never in bone alone, and a scanner whose
+/// enamel–dentin contrast is below the typical one (slope 1.0 where the typical HU give 1.26)
+/// puts water's grey at ~420 HU on that line, nearer cancellous bone than soft tissue: read as
+/// bone, it made the scan a jaw's (enamel +6.5 %, a 12-bit scan of a molar in water).
 fn from_layering(found: &[Peak], padding: Option<f64>, d: f64, e: f64) -> Calibration {
     let a = (e - d) / (Label::Enamel.typical_hu() - Label::Dentin.typical_hu());
     let b = d - a * Label::Dentin.typical_hu();
-    let outside = OUTSIDE;
     let mut taken: Vec<(Label, Peak)> = Vec::new();
     let lower = found.iter().copied().filter(|p| p.grey < below_dentin(d, e)).chain(padding.filter(|_| found.iter().all(|p| p.grey >= below_dentin(d, e))).map(|g| Peak { grey: g, count: 0.0 }));
+    let lowest = lower.clone().map(|p| p.grey).fold(f64::INFINITY, f64::min);
     for p in lower {
+        let outside: &[Label] = if p.grey == lowest { &OUTSIDE[..2] } else { &OUTSIDE };
         let hu = (p.grey - b) / a;
         let Some(&l) = outside.iter().min_by(|x, y| (x.typical_hu() - hu).abs().total_cmp(&(y.typical_hu() - hu).abs())) else { continue };
         match taken.iter_mut().find(|(t, _)| *t == l) {

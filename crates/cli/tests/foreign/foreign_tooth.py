@@ -8,8 +8,10 @@ pydicom (a DICOM series). Nothing here comes from dentsim's phantom.
 CASE: jaw (in bone and soft tissue, tilted 15 degrees, NIfTI; its root fused to the bone), socket
 (the same with a 0.3 mm ligament between the root and its socket), air (an extracted tooth on a wax
 block, in air, DICOM series, grey values signed and offset), water (in water, anisotropic
-voxels, NIfTI), or incisor (an extracted incisor in air, its canal 0.4 mm from the root's side
-near the apex, DICOM series stored unsigned with a rescale slope and intercept). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+voxels, NIfTI), incisor (an extracted incisor in air, its canal 0.4 mm from the root's side
+near the apex, DICOM series stored unsigned with a rescale slope and intercept), or water12 (the
+water case from a 12-bit CBCT, DICOM series, 0.3 mm voxels, its enamel–dentin contrast below the
+typical tissues' against the dentin's over water). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -20,12 +22,12 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15}[CASE])
+rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15, "water12": 16}[CASE])
 JAW = CASE in ("jaw", "socket")
 
 # Grid in the tooth's own frame (mm): z along the tooth, occlusal up; fine grid for the truth and
 # the partial volume, averaged into the scan's voxels.
-spacing = {"jaw": (0.2, 0.2, 0.2), "socket": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3), "incisor": (0.2, 0.2, 0.2)}[CASE]
+spacing = {"jaw": (0.2, 0.2, 0.2), "socket": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3), "incisor": (0.2, 0.2, 0.2), "water12": (0.3, 0.3, 0.3)}[CASE]
 FINE = 3  # sub-samples per voxel and axis
 extent = ((-7.0, 7.0), (-7.0, 7.0), (-16.0, 12.0 if CASE == "incisor" else 10.0))  # the incisor's crown is 10 mm tall
 dims = [int(round((hi - lo) / s)) for (lo, hi), s in zip(extent, spacing)]
@@ -71,6 +73,7 @@ grey = {
     "air": dict(air=-1000, wax=-80, dentin=1750, enamel=2800, pulp=-1000, scale=0.6, offset=-300),
     "water": dict(air=-1000, water=0, dentin=1800, enamel=2900, pulp=0, scale=2.0, offset=5000),
     "incisor": dict(air=-1000, dentin=1800, enamel=2900, pulp=40, scale=1.0, offset=0),
+    "water12": dict(air=0, water=860, dentin=2400, enamel=3500, pulp=900, scale=1.0, offset=0),
 }[CASE]
 if JAW:
     bone = (z <= -1.5) & (np.abs(x) <= 6.5) & (np.abs(y) <= 9.0)
@@ -110,7 +113,7 @@ origin = rotation @ centre_of_first + shift
 inside = (rotation @ np.array([0.0, 0.0, -4.0]) + shift).tolist()  # in the root's dentin under the crown
 
 os.makedirs(OUT, exist_ok=True)
-if CASE in ("air", "incisor"):
+if CASE in ("air", "incisor", "water12"):
     import pydicom
     from pydicom.dataset import FileDataset, FileMetaDataset
     from pydicom.uid import ExplicitVRLittleEndian, generate_uid
@@ -119,8 +122,9 @@ if CASE in ("air", "incisor"):
     os.makedirs(path, exist_ok=True)
     # The incisor's scanner stores unsigned values: HU = 0.5 * stored - 1024.
     slope, intercept = (0.5, -1024.0) if CASE == "incisor" else (1.0, 0.0)
-    if CASE == "incisor":
-        stored = np.clip(np.round((scan - intercept) / slope), 0, 65535).astype(np.uint16)
+    if CASE in ("incisor", "water12"):
+        top = 4095 if CASE == "water12" else 65535
+        stored = np.clip(np.round((scan - intercept) / slope), 0, top).astype(np.uint16)
     else:
         stored = np.clip(np.round(scan), -32768, 32767).astype(np.int16)
     series, study, frame = generate_uid(), generate_uid(), generate_uid()
@@ -139,7 +143,8 @@ if CASE in ("air", "incisor"):
         ds.SliceThickness = spacing[2]
         ds.Rows, ds.Columns = dims[1], dims[0]
         ds.SamplesPerPixel, ds.PhotometricInterpretation = 1, "MONOCHROME2"
-        ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 16, 16, 15, int(stored.dtype == np.int16)
+        bits = 12 if CASE == "water12" else 16
+        ds.BitsAllocated, ds.BitsStored, ds.HighBit, ds.PixelRepresentation = 16, bits, bits - 1, int(stored.dtype == np.int16)
         ds.RescaleIntercept, ds.RescaleSlope = intercept, slope
         ds.PixelData = np.ascontiguousarray(stored[:, :, k].T).tobytes()  # rows along y, columns along x
         ds.save_as(os.path.join(path, "slice%04d.dcm" % k), write_like_original=False)
