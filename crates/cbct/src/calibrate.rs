@@ -831,6 +831,12 @@ impl Coarse {
                                                 continue;
                                             }
                                             let (de, dd) = (walk(p, axis, -dir, reading), walk(q, axis, dir, reading));
+                                            // (Nor "dentin" within the blur's edge of the medium:
+                                            // the same rim, two voxels thick where the grid is
+                                            // as fine as the blur.)
+                                            if dd <= EDGE_MIX_MM {
+                                                continue;
+                                            }
                                             let h = 0.5 * self.spacing[axis];
                                             if dd > de + h {
                                                 l.deeper += 1;
@@ -853,6 +859,13 @@ impl Coarse {
             .reduce(|| [Layering::default(); 2], add)
     }
 }
+
+/// How far from the medium (mm) "dentin" beside enamel is the partial-volume rim where the
+/// enamel meets the outside, not a layer: a blurred edge takes 2.6 σ from 10 to 90 %, 0.5 mm
+/// for a point spread of σ 0.2 mm. (Scans at 0.24–0.25 mm, coarse grid unaveraged, showed the
+/// rim two voxels thick: its contacts read as dentin lying shallower, 45 % of them, and every
+/// such scan was refused.)
+const EDGE_MIX_MM: f64 = 0.5;
 
 /// [`Coarse::layerings`]' class past the grid's border.
 const BEYOND: u8 = 4;

@@ -11,7 +11,8 @@ block, in air, DICOM series, grey values signed and offset), water (in water, an
 voxels, NIfTI), incisor (an extracted incisor in air, its canal 0.4 mm from the root's side
 near the apex, DICOM series stored unsigned with a rescale slope and intercept), or water12 (the
 water case from a 12-bit CBCT, DICOM series, 0.3 mm voxels, its enamel–dentin contrast below the
-typical tissues' against the dentin's over water). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+typical tissues' against the dentin's over water), or scaled (a molar in air, its pulp soft tissue,
+0.25 mm voxels, NIfTI int16 with scl_slope 2 and scl_inter -1000). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -22,12 +23,12 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15, "water12": 16}[CASE])
+rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15, "water12": 16, "scaled": 17}[CASE])
 JAW = CASE in ("jaw", "socket")
 
 # Grid in the tooth's own frame (mm): z along the tooth, occlusal up; fine grid for the truth and
 # the partial volume, averaged into the scan's voxels.
-spacing = {"jaw": (0.2, 0.2, 0.2), "socket": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3), "incisor": (0.2, 0.2, 0.2), "water12": (0.3, 0.3, 0.3)}[CASE]
+spacing = {"jaw": (0.2, 0.2, 0.2), "socket": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3), "incisor": (0.2, 0.2, 0.2), "water12": (0.3, 0.3, 0.3), "scaled": (0.25, 0.25, 0.25)}[CASE]
 FINE = 3  # sub-samples per voxel and axis
 extent = ((-7.0, 7.0), (-7.0, 7.0), (-16.0, 12.0 if CASE == "incisor" else 10.0))  # the incisor's crown is 10 mm tall
 dims = [int(round((hi - lo) / s)) for (lo, hi), s in zip(extent, spacing)]
@@ -74,6 +75,7 @@ grey = {
     "water": dict(air=-1000, water=0, dentin=1800, enamel=2900, pulp=0, scale=2.0, offset=5000),
     "incisor": dict(air=-1000, dentin=1800, enamel=2900, pulp=40, scale=1.0, offset=0),
     "water12": dict(air=0, water=860, dentin=2400, enamel=3500, pulp=900, scale=1.0, offset=0),
+    "scaled": dict(air=-1000, dentin=1800, enamel=2900, pulp=40, scale=1.0, offset=0),
 }[CASE]
 if JAW:
     bone = (z <= -1.5) & (np.abs(x) <= 6.5) & (np.abs(y) <= 9.0)
@@ -84,7 +86,7 @@ if JAW:
     medium = np.where(bone, grey["bone"], np.where(z <= 3.0, grey["soft"], grey["air"]))
 elif CASE == "air":
     medium = np.where(z <= -9.0, grey["wax"], grey["air"]) + 0 * x * y  # root tip in a wax block
-elif CASE == "incisor":
+elif CASE in ("incisor", "scaled"):
     medium = np.full((1, 1, 1), grey["air"]) + 0 * x * y * z
 else:
     medium = np.full((1, 1, 1), grey["water"]) + 0 * x * y * z
@@ -156,8 +158,10 @@ else:
     affine[:3, :3] = np.diag([-1.0, -1.0, 1.0]) @ rotation @ np.diag(spacing)
     affine[:3, 3] = np.diag([-1.0, -1.0, 1.0]) @ origin
     path = os.path.join(OUT, "tooth.nii.gz")
-    image = nibabel.Nifti1Image(scan.astype(np.int16 if JAW else np.float32), affine)
+    image = nibabel.Nifti1Image(scan.astype(np.int16 if JAW or CASE == "scaled" else np.float32), affine)
     image.set_qform(affine, code=1)
     image.set_sform(affine, code=1)
+    if CASE == "scaled":  # the values are 2 * stored - 1000
+        image.header.set_slope_inter(2.0, -1000.0)
     nibabel.save(image, path)
 print(json.dumps({"path": path, "inside": inside, "truth": truth}))
