@@ -867,7 +867,14 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     // Next to metal the grey is the metal's bloom: the topology's answer stands there.
     let by_metal = morph(&bx.g, &bmetal, true);
     let ring: Vec<usize> = (0..bn).filter(|&l| near_out[l] && !inner[l] && !bcavity[l] && !by_metal[l]).collect();
-    let outside_classes = [Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical];
+    // The outside tissues the scan shows (all four where it shows none): the tooth's blur lifts
+    // the grey beside it, and air beside a crown on a fine scan (σ two voxels) read as soft
+    // tissue by its median, the surface then moved inward (an incisor in air at 0.1 mm: enamel
+    // −6 %).
+    let outside_classes: Vec<Label> = match [Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical].into_iter().filter(|l| cal.shows(*l)).collect::<Vec<_>>() {
+        shown if shown.is_empty() => vec![Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical],
+        shown => shown,
+    };
     let hard = [Label::Dentin, Label::Enamel];
     let d = bx.g.d;
     // Bone is a body: grey of bone in a shell thinner than BONE_DEPTH_MM around the tooth is

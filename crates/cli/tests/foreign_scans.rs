@@ -144,3 +144,15 @@ fn a_tooth_in_air_at_a_quarter_millimetre_scaled_by_its_header_from_nibabel() {
     let found = segment(dir.path(), "scaled");
     within("scaled", &found, &GOAL);
 }
+
+#[test]
+fn a_tooth_in_air_on_a_fine_grid_whose_blur_lifts_the_air_beside_it_from_nibabel() {
+    // 0.1 mm voxels, the point spread (σ 0.2 mm) two voxels wide: the air beside the tooth reads
+    // brighter than air, and read as soft tissue (a tissue the scan does not show) it moved the
+    // surface inward: enamel −4.5 %, dentin −4.2 %. The outside is now read among the tissues
+    // the calibration found: +0.5 %, −2.8 % (the 5 % held before as well, so the limits
+    // here lie between the two).
+    let dir = tempfile::tempdir().unwrap();
+    let found = segment(dir.path(), "fine");
+    within("fine", &found, &[("enamel", 0.02), ("dentin", 0.035), ("pulp", 0.08)]);
+}

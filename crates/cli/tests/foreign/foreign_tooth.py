@@ -12,7 +12,8 @@ voxels, NIfTI), incisor (an extracted incisor in air, its canal 0.4 mm from the 
 near the apex, DICOM series stored unsigned with a rescale slope and intercept), or water12 (the
 water case from a 12-bit CBCT, DICOM series, 0.3 mm voxels, its enamel–dentin contrast below the
 typical tissues' against the dentin's over water), or scaled (a molar in air, its pulp soft tissue,
-0.25 mm voxels, NIfTI int16 with scl_slope 2 and scl_inter -1000). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+0.25 mm voxels, NIfTI int16 with scl_slope 2 and scl_inter -1000), or fine (a molar in air, its pulp
+soft tissue, 0.1 mm voxels, the blur two voxels wide, NIfTI float). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -23,13 +24,13 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15, "water12": 16, "scaled": 17}[CASE])
+rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15, "water12": 16, "scaled": 17, "fine": 18}[CASE])
 JAW = CASE in ("jaw", "socket")
 
 # Grid in the tooth's own frame (mm): z along the tooth, occlusal up; fine grid for the truth and
 # the partial volume, averaged into the scan's voxels.
-spacing = {"jaw": (0.2, 0.2, 0.2), "socket": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3), "incisor": (0.2, 0.2, 0.2), "water12": (0.3, 0.3, 0.3), "scaled": (0.25, 0.25, 0.25)}[CASE]
-FINE = 3  # sub-samples per voxel and axis
+spacing = {"jaw": (0.2, 0.2, 0.2), "socket": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3), "incisor": (0.2, 0.2, 0.2), "water12": (0.3, 0.3, 0.3), "scaled": (0.25, 0.25, 0.25), "fine": (0.1, 0.1, 0.1)}[CASE]
+FINE = 2 if CASE == "fine" else 3  # sub-samples per voxel and axis
 extent = ((-7.0, 7.0), (-7.0, 7.0), (-16.0, 12.0 if CASE == "incisor" else 10.0))  # the incisor's crown is 10 mm tall
 dims = [int(round((hi - lo) / s)) for (lo, hi), s in zip(extent, spacing)]
 
@@ -76,6 +77,7 @@ grey = {
     "incisor": dict(air=-1000, dentin=1800, enamel=2900, pulp=40, scale=1.0, offset=0),
     "water12": dict(air=0, water=860, dentin=2400, enamel=3500, pulp=900, scale=1.0, offset=0),
     "scaled": dict(air=-1000, dentin=1800, enamel=2900, pulp=40, scale=1.0, offset=0),
+    "fine": dict(air=-1000, dentin=1800, enamel=2900, pulp=40, scale=1.0, offset=0),
 }[CASE]
 if JAW:
     bone = (z <= -1.5) & (np.abs(x) <= 6.5) & (np.abs(y) <= 9.0)
@@ -86,7 +88,7 @@ if JAW:
     medium = np.where(bone, grey["bone"], np.where(z <= 3.0, grey["soft"], grey["air"]))
 elif CASE == "air":
     medium = np.where(z <= -9.0, grey["wax"], grey["air"]) + 0 * x * y  # root tip in a wax block
-elif CASE in ("incisor", "scaled"):
+elif CASE in ("incisor", "scaled", "fine"):
     medium = np.full((1, 1, 1), grey["air"]) + 0 * x * y * z
 else:
     medium = np.full((1, 1, 1), grey["water"]) + 0 * x * y * z

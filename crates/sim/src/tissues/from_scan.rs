@@ -415,7 +415,9 @@ fn outside_about(scan: &Volume, cal: &Calibration, centre: usize, clear: impl Fn
             }
         }
     }
-    cal.outside_of(&mut grey, &[Label::Air, Label::SoftTissue])
+    let shown: Vec<Label> = [Label::Air, Label::SoftTissue].into_iter().filter(|l| cal.shows(*l)).collect();
+    let among: &[Label] = if shown.len() == 1 { &shown } else { &[Label::Air, Label::SoftTissue] };
+    cal.outside_of(&mut grey, among)
 }
 
 /// Steps of at most 0.1 (stable) making up `time` (voxels²).
