@@ -419,12 +419,13 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
     let s = lay.score();
     let confidence = ((s / 0.15).clamp(0.0, 1.0) * (lay.deeper as f64 / 100.0).clamp(0.0, 1.0) * ((s - rival_score) / (0.5 * s)).clamp(0.0, 1.0)).max(0.0);
     let mut evidence = vec![format!(
-        "reading dentin {d:.0}, enamel {e:.0} (medium {m:.0}): at {} of {} enamel–dentin contacts the dentin lies deeper, at {} shallower, over {} enamel surface voxels; {} contacts of thick dentin with the medium (roots) (score {s:.3})",
+        "reading dentin {d:.0}, enamel {e:.0} (medium {m:.0}): at {} of {} enamel–dentin contacts the dentin lies deeper, at {} shallower, over {} enamel surface voxels; {} contacts of thick dentin with the medium (roots); {:.0} % of the dentin's voxels inner (score {s:.3})",
         lay.deeper,
         lay.deeper + lay.shallower + lay.level,
         lay.shallower,
         lay.surface,
-        lay.bare
+        lay.bare,
+        100.0 * lay.dentin_inner as f64 / lay.dentin.max(1) as f64
     )];
     if let Some((p, r)) = rival {
         evidence.push(format!("next reading: dentin {:.0}, enamel {:.0} (medium {:.0}), score {:.3}", p[1], p[2], p[0], r.score()));
@@ -807,6 +808,8 @@ impl Coarse {
                         }
                         for (reading, l) in out.iter_mut().enumerate() {
                             if class == 1 {
+                                l.dentin += 1;
+                                l.dentin_inner += usize::from(stride.iter().all(|&s| at(p - s, reading) == 1 && at(p + s, reading) == 1));
                                 // dentin facing the medium with ≥ 1 mm of dentin behind it: a root
                                 for axis in 0..3 {
                                     for dir in [-1isize, 1] {
@@ -867,6 +870,11 @@ impl Coarse {
 /// such scan was refused.)
 const EDGE_MIX_MM: f64 = 0.5;
 
+/// The share of "dentin" voxels with dentin all round below which the reading's dentin is no
+/// bulk: its score falls in proportion (a reading of the dentin–enamel blur as dentin: 0.4 mm
+/// scans of an incisor whose bone fills the view).
+const BULK_SHARE: f64 = 0.2;
+
 /// [`Coarse::layerings`]' class past the grid's border.
 const BEYOND: u8 = 4;
 
@@ -882,16 +890,29 @@ struct Layering {
     /// dentin facing the medium with dentin behind it (the roots: enamel covers only the
     /// crown); a reading of the pulp as "dentin" inside a whole tooth read as "enamel" has none
     bare: usize,
+    /// "dentin" voxels, and those whose six neighbours are dentin too: dentin is the tooth's
+    /// bulk, a blurred band between two tissues has almost no inner voxels
+    dentin: usize,
+    dentin_inner: usize,
 }
 
 impl Layering {
     fn plus(&self, o: &Layering) -> Layering {
-        Layering { deeper: self.deeper + o.deeper, shallower: self.shallower + o.shallower, level: self.level + o.level, surface: self.surface + o.surface, bare: self.bare + o.bare }
+        Layering {
+            deeper: self.deeper + o.deeper,
+            shallower: self.shallower + o.shallower,
+            level: self.level + o.level,
+            surface: self.surface + o.surface,
+            bare: self.bare + o.bare,
+            dentin: self.dentin + o.dentin,
+            dentin_inner: self.dentin_inner + o.dentin_inner,
+        }
     }
 
     fn score(&self) -> f64 {
         let roots = (self.bare as f64 / (0.1 * self.surface.max(1) as f64)).min(1.0);
-        roots * (self.deeper as f64 - self.shallower as f64) / self.surface.max(1) as f64
+        let bulk = (self.dentin_inner as f64 / (BULK_SHARE * self.dentin.max(1) as f64)).min(1.0);
+        roots * bulk * (self.deeper as f64 - self.shallower as f64) / self.surface.max(1) as f64
     }
 }
 
