@@ -867,13 +867,14 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     // Next to metal the grey is the metal's bloom: the topology's answer stands there.
     let by_metal = morph(&bx.g, &bmetal, true);
     let ring: Vec<usize> = (0..bn).filter(|&l| near_out[l] && !inner[l] && !bcavity[l] && !by_metal[l]).collect();
-    // The outside tissues the scan shows (all four where it shows none): the tooth's blur lifts
+    // Around a tooth alone (no bone), the outside tissues the scan shows: the tooth's blur lifts
     // the grey beside it, and air beside a crown on a fine scan (σ two voxels) read as soft
     // tissue by its median, the surface then moved inward (an incisor in air at 0.1 mm: enamel
-    // −6 %).
-    let outside_classes: Vec<Label> = match [Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical].into_iter().filter(|l| cal.shows(*l)).collect::<Vec<_>>() {
-        shown if shown.is_empty() => vec![Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical],
-        shown => shown,
+    // −6 %). In a jaw all four: soft tissue may have been matched to a bone's name.
+    let all_outside = [Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical];
+    let outside_classes: Vec<Label> = match all_outside.into_iter().filter(|l| cal.shows(*l)).collect::<Vec<_>>() {
+        shown if !shown.is_empty() && !cal.shows_bone() => shown,
+        _ => all_outside.to_vec(),
     };
     let hard = [Label::Dentin, Label::Enamel];
     let d = bx.g.d;

@@ -415,8 +415,10 @@ fn outside_about(scan: &Volume, cal: &Calibration, centre: usize, clear: impl Fn
             }
         }
     }
+    // A tooth alone (no bone) has only the outside the calibration found; in a jaw, soft tissue
+    // may have been matched to another class's name, and both stay.
     let shown: Vec<Label> = [Label::Air, Label::SoftTissue].into_iter().filter(|l| cal.shows(*l)).collect();
-    let among: &[Label] = if shown.len() == 1 { &shown } else { &[Label::Air, Label::SoftTissue] };
+    let among: &[Label] = if shown.len() == 1 && !cal.shows_bone() { &shown } else { &[Label::Air, Label::SoftTissue] };
     cal.outside_of(&mut grey, among)
 }
 
