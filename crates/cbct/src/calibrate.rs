@@ -10,7 +10,9 @@
 //! 2. Each proposal is tested on the scan (`layering`): enamel is the crown's outer shell, so
 //!    where its voxels touch dentin's, the dentin lies deeper (farther from the medium). Reading
 //!    the tooth as "enamel" and wax, water or bone as "dentin" puts the "dentin" outside. The
-//!    score is (deeper − shallower contacts) / enamel surface; the best proposal wins.
+//!    score is (deeper − shallower contacts) / enamel surface, weighed down where the reading's
+//!    dentin shows no bare roots or no bulk (a blurred band read as dentin); rim "dentin" within
+//!    0.5 mm of the medium does not count. The best proposal wins.
 //! 3. A peak below the dentin is an outside tissue (air, soft tissue, bone) only where its grey
 //!    fills a body of the scan (else it is an edge's mix or the storage's rounding; the medium
 //!    the scan was taken in always stays). Each such peak is the outside tissue nearest its HU
