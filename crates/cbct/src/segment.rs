@@ -791,7 +791,8 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     let pockets = if opts.detect_caries {
         // (Passed with the tooth in: the outline to close is the tooth's with its cavities.)
         let mut solid: Vec<bool> = (0..bn).map(|l| btooth[l] || candidates[l]).collect();
-        let pockets = open_lesions(&bx, &enamel, &near_enamel, &bvals, vol.spacing, &|v| lesion_grey(v) && v < cal.hard_cut(), &mut solid);
+        let hard_cut = cal.hard_cut();
+        let pockets = open_lesions(&bx, &enamel, &near_enamel, &bvals, vol.spacing, &|v| lesion_grey(v) && v < hard_cut, &mut solid);
         for l in (0..bn).filter(|&l| solid[l] && !btooth[l]) {
             candidates[l] = true;
         }

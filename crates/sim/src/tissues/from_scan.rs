@@ -416,9 +416,12 @@ fn outside_about(scan: &Volume, cal: &Calibration, centre: usize, clear: impl Fn
         }
     }
     // A tooth alone (no bone) has only the outside the calibration found; in a jaw, soft tissue
-    // may have been matched to another class's name, and both stay.
-    let shown: Vec<Label> = [Label::Air, Label::SoftTissue].into_iter().filter(|l| cal.shows(*l)).collect();
-    let among: &[Label] = if shown.len() == 1 && !cal.shows_bone() { &shown } else { &[Label::Air, Label::SoftTissue] };
+    // may have been matched to another class's name, and both stay. (Per voxel: no allocation.)
+    let among: &[Label] = match (cal.shows(Label::Air), cal.shows(Label::SoftTissue), cal.shows_bone()) {
+        (true, false, false) => &[Label::Air],
+        (false, true, false) => &[Label::SoftTissue],
+        _ => &[Label::Air, Label::SoftTissue],
+    };
     cal.outside_of(&mut grey, among)
 }
 
