@@ -34,6 +34,9 @@ mod bridge {
         points: Vec<f32>,
         normals: Vec<f32>,
         triangles: Vec<u32>,
+        /// What segmentation found doubtful about this tissue (a pulp it could not resolve or
+        /// did not find), each a sentence saying what to try; empty elsewhere.
+        warnings: Vec<String>,
     }
 
     /// One tooth of all those found in a scan, with its tissues.
@@ -479,10 +482,11 @@ fn segment_scan(
 ) -> Result<Vec<TissueSurface>, String> {
     let (scan, request) = scan_request(geometry, values, params, scan_path, thresholds)?;
     // Segmentation reports up to 0.9; meshing the surfaces is the rest.
-    let (model, _) = request.run_until(&scan, &TissueTable::default(), &mut |_, f| go_on(0.9 * f)).map_err(|e| e.to_string())?;
-    let surfaces = unchanged_surfaces(&model);
+    let (model, report) = request.run_until(&scan, &TissueTable::default(), &mut |_, f| go_on(0.9 * f)).map_err(|e| e.to_string())?;
+    let mut surfaces = unchanged_surfaces(&model)?;
+    attach_warnings(&mut surfaces, &report.warnings);
     go_on(1.0);
-    surfaces
+    Ok(surfaces)
 }
 
 /// Every tooth in the scan, each its own object with its tissues (the scan as for
@@ -506,7 +510,9 @@ fn segment_teeth(
         .iter()
         .map(|(model, report)| {
             let (n, found) = report.found.clone().ok_or("a tooth without its place")?;
-            Ok(ToothSurfaces { tooth: n as u32, seed_mm: found.seed, cut_by_field_of_view: found.cut_by_field_of_view, tissues: unchanged_surfaces(model)? })
+            let mut tissues = unchanged_surfaces(model)?;
+            attach_warnings(&mut tissues, &report.warnings);
+            Ok(ToothSurfaces { tooth: n as u32, seed_mm: found.seed, cut_by_field_of_view: found.cut_by_field_of_view, tissues })
         })
         .collect()
 }
@@ -879,6 +885,16 @@ fn mesh_surface(p: &TissueProps, mesh: &TriMesh, volume_before_mm3: f64, volume_
         points: mesh.points.iter().flat_map(|v| v.to_array()).collect(),
         normals: mesh.normals.iter().flat_map(|v| v.to_array()).collect(),
         triangles: mesh.triangles.iter().flatten().copied().collect(),
+        warnings: Vec::new(),
+    }
+}
+
+/// A segmentation's warnings on the surfaces they concern: every one is about the pulp, so on the
+/// pulp's, or where none was found, on the dentin's (the tissue the lost pulp was read as).
+fn attach_warnings(surfaces: &mut [TissueSurface], warnings: &[String]) {
+    let holder = surfaces.iter().position(|s| s.name == "pulp").or_else(|| surfaces.iter().position(|s| s.name == "dentin"));
+    if let Some(i) = holder.or((!surfaces.is_empty()).then_some(0)) {
+        surfaces[i].warnings.extend(warnings.iter().cloned());
     }
 }
 

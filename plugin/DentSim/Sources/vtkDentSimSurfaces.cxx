@@ -16,6 +16,7 @@
 #include <vtkStringArray.h>
 
 #include <vtkAlgorithm.h>
+#include <vtkSetGet.h>
 #include <vtkDataObjectTreeIterator.h>
 #include <vtkInformationVector.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
@@ -85,6 +86,12 @@ vtkSmartPointer<vtkPolyData> ToPolyData(const dentsim::ffi::TissueSurface& s) {
   colour->SetNumberOfComponents(3);
   colour->InsertNextTuple3(s.colour[0], s.colour[1], s.colour[2]);
   fd->AddArray(colour);
+  if (!s.warnings.empty()) {
+    vtkNew<vtkStringArray> warnings;
+    warnings->SetName("Warnings");
+    for (const auto& w : s.warnings) warnings->InsertNextValue(std::string(w));
+    fd->AddArray(warnings);
+  }
   return pd;
 }
 
@@ -99,6 +106,14 @@ void FillTissueBlocks(const rust::Vec<ffi::TissueSurface>& surfaces, vtkMultiBlo
     out->SetBlock(i, ToPolyData(s));
     out->GetMetaData(i)->Set(vtkCompositeDataSet::NAME(), std::string(s.name).c_str());
     ++i;
+  }
+}
+
+void ReportWarnings(vtkAlgorithm* self, const rust::Vec<ffi::TissueSurface>& surfaces) {
+  for (const auto& s : surfaces) {
+    for (const auto& w : s.warnings) {
+      vtkWarningWithObjectMacro(self, << "DentSim: " << std::string(s.name) << ": " << std::string(w));
+    }
   }
 }
 

@@ -15,8 +15,12 @@ class vtkPolyData;
 namespace dentsim {
 // One block per tissue, named after it: points, triangles, `Normals`, cell array `Tissue`
 // (label), field data `TissueName`, `Stiffness` (N/mm), `Damping` (N s/mm), `RemovalRate`,
-// `Colour`, `Opacity`, and volumes before/after/removed (mm^3).
+// `Colour`, `Opacity`, volumes before/after/removed (mm^3), and `Warnings` (strings) where the
+// core found the tissue doubtful (segmentation's pulp warnings).
 void FillTissueBlocks(const rust::Vec<ffi::TissueSurface>& surfaces, vtkMultiBlockDataSet* out);
+
+// Each tissue's warnings as VTK warnings of `self` (ParaView's Output Messages).
+void ReportWarnings(vtkAlgorithm* self, const rust::Vec<ffi::TissueSurface>& surfaces);
 
 // Polls until `finished()`, passing progress to `self` (ParaView's progress bar) and `self`'s
 // AbortExecute to the job.

@@ -148,6 +148,7 @@ int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector
       for (const auto& tooth : teeth) {
         vtkNew<vtkMultiBlockDataSet> block;
         dentsim::FillTissueBlocks(tooth.tissues, block);
+        dentsim::ReportWarnings(this, tooth.tissues);
         output->SetBlock(b, block);
         std::string name = "tooth " + std::to_string(tooth.tooth);
         if (tooth.cut_by_field_of_view) name += " (cut by the field of view)";
@@ -156,9 +157,10 @@ int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector
         ++b;
       }
     } else {
-      dentsim::FillTissueBlocks(
-          dentsim::RunJob(this, dentsim::ffi::start_tissues_from_scan(geometry, grey, params, scanFile, thresholds)),
-          output);
+      const auto surfaces =
+          dentsim::RunJob(this, dentsim::ffi::start_tissues_from_scan(geometry, grey, params, scanFile, thresholds));
+      dentsim::FillTissueBlocks(surfaces, output);
+      dentsim::ReportWarnings(this, surfaces);
       tissueSets.push_back(output);
     }
   } catch (const rust::Error& e) {
