@@ -365,8 +365,7 @@ impl TissuesFromScan {
         step(go_on, "cropping to the tooth", 0.4)?;
         let clock = Instant::now();
         let region = tooth_box(&labels, self.fdi, None, self.margin_mm).map_err(cbct)?;
-        let tooth_scan = crop(scan, &region).map_err(cbct)?;
-        let mut tooth_labels = crop_labels(&labels, &region).map_err(cbct)?;
+        let (tooth_scan, mut tooth_labels) = close_at_the_field_of_view(crop(scan, &region).map_err(cbct)?, crop_labels(&labels, &region).map_err(cbct)?, &region, scan.dims, &calibration);
         let rim = peel_blurred_rim(&tooth_scan, &mut tooth_labels, &calibration);
         let specks = keep_largest_component(&mut tooth_labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
         seconds.crop = clock.elapsed().as_secs_f64();
@@ -476,6 +475,57 @@ pub fn write_all_segmentations(teeth: &mut [(TissueModel, ScanReport)], out: &st
         Ok(())
     })?;
     Ok(names.iter().map(|n| folder.join(n)).collect())
+}
+
+/// Voxels of the outside laid beyond each side of a tooth's box that the scan's edge cuts.
+const FIELD_OF_VIEW_PAD: usize = 2;
+
+/// A tooth's box (`region` of a scan of `dims`) with [`FIELD_OF_VIEW_PAD`] voxels of the outside
+/// around it (its grey, and its label) beyond every side where the scan ends: a tooth the field of
+/// view cuts then closes there, a flat cap at the scan's edge, instead of running open out of the
+/// grid (its level set's inside then reached past the band: the molar phantom's cut neighbour read
+/// dentin 4888 mm³ where its voxels hold 308). The outside is the one most common on the box's
+/// other faces.
+fn close_at_the_field_of_view(scan: Volume, labels: dentsim_cbct::LabelVolume, region: &dentsim_cbct::IndexBox, dims: [usize; 3], cal: &Calibration) -> (Volume, dentsim_cbct::LabelVolume) {
+    let low: [usize; 3] = std::array::from_fn(|c| if region.min[c] == 0 { FIELD_OF_VIEW_PAD } else { 0 });
+    let high: [usize; 3] = std::array::from_fn(|c| if region.max[c] >= dims[c] { FIELD_OF_VIEW_PAD } else { 0 });
+    if low == [0; 3] && high == [0; 3] {
+        return (scan, labels);
+    }
+    let [nx, ny, nz] = scan.dims;
+    let mut counts = [0usize; Label::BoneCortical as usize + 1];
+    for n in 0..labels.labels.len() {
+        let ijk = [n % nx, (n / nx) % ny, n / (nx * ny)];
+        let on_face = (0..3).any(|c| ijk[c] == 0 || ijk[c] + 1 == scan.dims[c]);
+        if on_face && labels.labels[n] <= Label::BoneCortical as u8 {
+            counts[labels.labels[n] as usize] += 1;
+        }
+    }
+    let outside = (0..counts.len()).max_by_key(|&l| counts[l]).filter(|&l| counts[l] > 0).and_then(|l| Label::from_u8(l as u8)).unwrap_or(Label::Air);
+    let padded: [usize; 3] = std::array::from_fn(|c| scan.dims[c] + low[c] + high[c]);
+    let mut values = vec![cal.peak(outside) as f32; padded.iter().product()];
+    let mut codes = vec![outside as u8; values.len()];
+    for k in 0..nz {
+        for j in 0..ny {
+            let from = nx * (j + ny * k);
+            let to = low[0] + padded[0] * ((j + low[1]) + padded[1] * (k + low[2]));
+            values[to..to + nx].copy_from_slice(&scan.values[from..from + nx]);
+            codes[to..to + nx].copy_from_slice(&labels.labels[from..from + nx]);
+        }
+    }
+    let shift = low.map(|l| -(l as f64));
+    let origin = {
+        let mut p = scan.origin;
+        for c in 0..3 {
+            for r in 0..3 {
+                p[r] += scan.direction[c][r] * scan.spacing[c] * shift[c];
+            }
+        }
+        p
+    };
+    let scan = Volume { dims: padded, origin, values, ..scan };
+    let labels = dentsim_cbct::LabelVolume { dims: padded, origin, labels: codes, ..labels };
+    (scan, labels)
 }
 
 /// Builds the tooth's tissues from nested unions so that each grid encloses only its own material
