@@ -340,7 +340,13 @@ fn peaks(h: &[f64], lo: f64, bw: f64) -> Vec<Peak> {
             }
         }
     }
-    found.sort_by(|a, b| b.1.total_cmp(&a.1));
+    // At most 9, the most prominent, but always the three brightest: the tooth's tissues are
+    // the scan's brightest, and a jaw's blurred edges (air–soft tissue–bone mixes) can make more
+    // bumps below the dentin than leave room for the enamel (an incisor in a jaw at 0.25 mm:
+    // nine prominent peaks up to the dentin, the enamel's tenth; refused at confidence 0).
+    found.sort_by_key(|p| std::cmp::Reverse(p.0));
+    let brightest = found.len().min(3);
+    found[brightest..].sort_by(|a, b| b.1.total_cmp(&a.1));
     found.truncate(9);
     found.sort_by_key(|p| p.0);
     let count = |i: usize| h[i.saturating_sub(3)..(i + 4).min(bins)].iter().sum::<f64>();
@@ -1021,4 +1027,24 @@ pub fn parse_thresholds(text: &str) -> Result<Vec<(Label, f64)>> {
             Ok((label, grey))
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_brightest_peaks_are_kept_however_many_bumps_lie_below() {
+        // Ten bumps, the brightest (the enamel's) the least prominent in the log-histogram.
+        let mut h = vec![1.0; 600];
+        for (centre, height) in (0..9).map(|i| (30 + 55 * i, 5000.0)).chain([(560, 40.0)]) {
+            for (b, count) in h.iter_mut().enumerate() {
+                *count += height * (-((b as f64 - centre as f64) / 6.0).powi(2) / 2.0).exp();
+            }
+        }
+        let found = peaks(&h, 0.0, 1.0);
+        assert_eq!(found.len(), 9, "{found:?}");
+        assert!((found[8].grey - 560.5).abs() <= 2.0, "the brightest bump dropped: {found:?}");
+        assert!((found[7].grey - 470.5).abs() <= 2.0 && (found[6].grey - 415.5).abs() <= 2.0, "{found:?}");
+    }
 }
