@@ -179,9 +179,8 @@ pub fn canal_warning(short_mm: f64, length_mm: f64, scan_voxel_mm: f64) -> Optio
 
 /// Where along the tooth's long axis its pulp ends against its root: (mm from the pulp's
 /// deepest voxel to the root's apex, the dentin's length in mm from the apex to the crown's
-/// dentin–enamel junction). The axis is the dentin and
-/// pulp's principal one, its crown end the side of the dentin–enamel junction; `None` without
-/// pulp, dentin or enamel.
+/// dentin–enamel junction). The axis is the dentin and pulp's principal one, its crown end the
+/// junction's side; `None` without pulp, dentin or enamel.
 fn canal_shortfall(scan: &Volume, labels: &dentsim_cbct::LabelVolume) -> Option<(f64, f64)> {
     let (d, p, e) = (Label::Dentin as u8, Label::Pulp as u8, Label::Enamel as u8);
     let [nx, ny, nz] = scan.dims;
@@ -205,10 +204,10 @@ fn canal_shortfall(scan: &Volume, labels: &dentsim_cbct::LabelVolume) -> Option<
     for _ in 0..64 {
         axis = (spread * axis).normalize_or_zero();
     }
-    let crown = junction.iter().map(|&n| at(n)).sum::<DVec3>() / junction.len() as f64;
     if axis == DVec3::ZERO {
         return None;
     }
+    let crown = junction.iter().map(|&n| at(n)).sum::<DVec3>() / junction.len() as f64;
     if (crown - centre).dot(axis) < 0.0 {
         axis = -axis;
     }
