@@ -64,6 +64,13 @@ fn one() -> f64 {
     1.0
 }
 
+/// The outside about a tooth's surface is read at least this far apart (mm; see
+/// [`Calibration::outside_steps`]): a scanner's point spread (σ ≈ 0.2 mm) lifts every voxel
+/// within about a σ of the tooth toward its grey, so on a 0.1 mm grid all voxels within 2 of the
+/// surface read brighter than the air there (a jaw's crowns at 0.1 mm read as in soft tissue:
+/// enamel −3.6…−5.9 %).
+pub const OUTSIDE_STEP_MM: f64 = 0.2;
+
 /// Below this confidence, automatic calibration stops with an error instead of guessing.
 pub const MIN_CONFIDENCE: f64 = 0.5;
 
@@ -193,6 +200,12 @@ impl Calibration {
         }
         let darker = self.nearest(at(greys, greys.len() / 5), among);
         Some(if darker == Label::Air { Label::Air } else { median })
+    }
+
+    /// The steps (voxels, per axis) of the 5³ lattice about a surface voxel whose outside voxels
+    /// [`Self::outside_of`] reads: the voxel, or [`OUTSIDE_STEP_MM`] where the voxel is finer.
+    pub fn outside_steps(spacing: [f64; 3]) -> [usize; 3] {
+        spacing.map(|s| ((OUTSIDE_STEP_MM / s).round() as usize).max(1))
     }
 
     /// [`Self::classify`] with the thresholds' names read once, for a scan's every voxel.

@@ -265,8 +265,15 @@ struct Cavity {
 /// Linear indices (x fastest) of the voxels within `r` of `p` along every axis, in a grid of
 /// dimensions `d`.
 fn cube_around(p: [usize; 3], r: i64, d: [usize; 3]) -> impl Iterator<Item = usize> {
+    lattice_around(p, r, [1; 3], d)
+}
+
+/// The (2r+1)³ lattice about `p` with `steps` voxels between its points along each axis, within
+/// the grid `d`.
+fn lattice_around(p: [usize; 3], r: i64, steps: [usize; 3], d: [usize; 3]) -> impl Iterator<Item = usize> {
+    let s = steps.map(|s| s as i64);
     (-r..=r)
-        .flat_map(move |dk| (-r..=r).flat_map(move |dj| (-r..=r).map(move |di| [p[0] as i64 + di, p[1] as i64 + dj, p[2] as i64 + dk])))
+        .flat_map(move |dk| (-r..=r).flat_map(move |dj| (-r..=r).map(move |di| [p[0] as i64 + s[0] * di, p[1] as i64 + s[1] * dj, p[2] as i64 + s[2] * dk])))
         .filter(move |q| (0..3).all(|c| q[c] >= 0 && q[c] < d[c] as i64))
         .map(move |q| q[0] as usize + d[0] * (q[1] as usize + d[1] * q[2] as usize))
 }
@@ -879,6 +886,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
     };
     let hard = [Label::Dentin, Label::Enamel];
     let d = bx.g.d;
+    let outside_steps = Calibration::outside_steps(vol.spacing);
     // Bone is a body: grey of bone in a shell thinner than BONE_DEPTH_MM around the tooth is
     // the blur's mix of the tooth and a darker outside (water, air), no bone.
     let bone_near = {
@@ -895,13 +903,8 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
         .map(|&l| {
             let p = bx.g.ijk(l);
             let (mut ins, mut outs) = (Vec::with_capacity(125), Vec::with_capacity(125));
-            for t in cube_around(p, 2, d) {
-                if inner[t] && btooth[t] {
-                    ins.push(bvals[t]);
-                } else if !filled[t] && !bmetal[t] {
-                    outs.push(bvals[t]);
-                }
-            }
+            ins.extend(cube_around(p, 2, d).filter(|&t| inner[t] && btooth[t]).map(|t| bvals[t]));
+            outs.extend(lattice_around(p, 2, outside_steps, d).filter(|&t| !filled[t] && !bmetal[t]).map(|t| bvals[t]));
             let mu_in = if ins.is_empty() { Label::Dentin } else { cal.nearest(median(&mut ins) as f64, &hard) };
             let mu_out = cal.outside_of(&mut outs, &outside_classes).unwrap_or(Label::SoftTissue);
             // Roots sit in bone behind a periodontal ligament (soft tissue, ~0.2 mm), mostly

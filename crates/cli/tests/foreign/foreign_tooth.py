@@ -17,7 +17,9 @@ soft tissue, 0.1 mm voxels, the blur two voxels wide, NIfTI float), or incisor_j
 bone and soft tissue, 0.4 mm voxels, its pulp 300 HU, NIfTI int16), or incisor_coarse (the extracted
 incisor in air at 0.4 mm, its pulp 300 HU, NIfTI float: its canal two voxels wide), or
 incisor_jaw_wide (the incisor in bone, soft tissue and air over a wider field of view at 0.25 mm,
-its pulp 40 HU, NIfTI int16: the jaw's blurred edges make more histogram bumps than the enamel). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+its pulp 40 HU, NIfTI int16: the jaw's blurred edges make more histogram bumps than the enamel), or
+incisor_jaw_fine (the same at 0.1 mm: the point spread two voxels wide, its crown above the gum in
+air). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -28,14 +30,14 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15, "water12": 16, "scaled": 17, "fine": 18, "incisor_jaw": 19, "incisor_coarse": 20, "incisor_jaw_wide": 191}[CASE])
-JAW = CASE in ("jaw", "socket", "incisor_jaw", "incisor_jaw_wide")
+rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15, "water12": 16, "scaled": 17, "fine": 18, "incisor_jaw": 19, "incisor_coarse": 20, "incisor_jaw_wide": 191, "incisor_jaw_fine": 21}[CASE])
+JAW = CASE in ("jaw", "socket", "incisor_jaw", "incisor_jaw_wide", "incisor_jaw_fine")
 
 # Grid in the tooth's own frame (mm): z along the tooth, occlusal up; fine grid for the truth and
 # the partial volume, averaged into the scan's voxels.
-spacing = {"jaw": (0.2, 0.2, 0.2), "socket": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3), "incisor": (0.2, 0.2, 0.2), "water12": (0.3, 0.3, 0.3), "scaled": (0.25, 0.25, 0.25), "fine": (0.1, 0.1, 0.1), "incisor_jaw": (0.4, 0.4, 0.4), "incisor_coarse": (0.4, 0.4, 0.4), "incisor_jaw_wide": (0.25, 0.25, 0.25)}[CASE]
-FINE = 2 if CASE == "fine" else 3  # sub-samples per voxel and axis
-extent = ((-7.0, 7.0), (-7.0, 7.0), (-16.0, 12.0 if CASE in ("incisor", "incisor_coarse", "incisor_jaw_wide") else 10.0))  # the incisor's crown is 10 mm tall
+spacing = {"jaw": (0.2, 0.2, 0.2), "socket": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3), "incisor": (0.2, 0.2, 0.2), "water12": (0.3, 0.3, 0.3), "scaled": (0.25, 0.25, 0.25), "fine": (0.1, 0.1, 0.1), "incisor_jaw": (0.4, 0.4, 0.4), "incisor_coarse": (0.4, 0.4, 0.4), "incisor_jaw_wide": (0.25, 0.25, 0.25), "incisor_jaw_fine": (0.1, 0.1, 0.1)}[CASE]
+FINE = 2 if CASE in ("fine", "incisor_jaw_fine") else 3  # sub-samples per voxel and axis
+extent = ((-7.0, 7.0), (-7.0, 7.0), (-16.0, 12.0 if CASE in ("incisor", "incisor_coarse", "incisor_jaw_wide", "incisor_jaw_fine") else 10.0))  # the incisor's crown is 10 mm tall
 if CASE == "incisor_jaw":  # a field of view filled by the jaw's bone
     extent = ((-6.0, 6.0), (-5.5, 5.5), (-15.0, 12.0))
 dims = [int(round((hi - lo) / s)) for (lo, hi), s in zip(extent, spacing)]
@@ -54,7 +56,7 @@ def superellipsoid(cx, cy, cz, a, b, c, p):
 
 
 radius = lambda top, bottom: top + (bottom - top) * np.clip(-z / 13.0, 0.0, 1.0)  # noqa: E731
-if CASE in ("incisor", "incisor_jaw", "incisor_coarse", "incisor_jaw_wide"):
+if CASE in ("incisor", "incisor_jaw", "incisor_coarse", "incisor_jaw_wide", "incisor_jaw_fine"):
     # A chisel-shaped crown 8.6 x 6.6 x 10 mm over a root narrowing to 0.8 x 0.7 mm at its apex;
     # the canal (0.8 mm wide) ends 1 mm above it, 0.4 mm from the root's side.
     crown = superellipsoid(0.0, 0.0, 4.5, 4.3, 3.3, 5.5, 2.3) & (z >= -0.5)
@@ -87,6 +89,7 @@ grey = {
     "incisor_jaw": dict(air=-1000, soft=40, bone=1100, dentin=1800, enamel=2900, pulp=300, scale=1.0, offset=0),
     "incisor_coarse": dict(air=-1000, dentin=1800, enamel=2900, pulp=300, scale=1.0, offset=0),
     "incisor_jaw_wide": dict(air=-1000, soft=40, bone=1100, dentin=1800, enamel=2900, pulp=40, scale=1.0, offset=0),
+    "incisor_jaw_fine": dict(air=-1000, soft=40, bone=1100, dentin=1800, enamel=2900, pulp=40, scale=1.0, offset=0),
 }[CASE]
 if JAW:
     bone = (z <= -1.5) & (np.abs(x) <= 6.5) & (np.abs(y) <= 9.0)

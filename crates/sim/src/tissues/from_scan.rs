@@ -543,16 +543,18 @@ const GREY_SIDE: f32 = 0.02;
 const FLOW_MM2: f64 = 0.016;
 
 /// The tissue outside the tooth about voxel `centre`, air or soft tissue, as
-/// [`Calibration::outside_of`] reads it from the grey of the voxels within 2 voxels that `clear`
-/// admits (not the tooth, nor the outside its blur brightens).
+/// [`Calibration::outside_of`] reads it from the grey of the voxels within 2 steps that `clear`
+/// admits (not the tooth, nor the outside its blur brightens); a step is a voxel, or 0.2 mm on a
+/// finer grid ([`Calibration::outside_steps`]).
 fn outside_about(scan: &Volume, cal: &Calibration, centre: usize, clear: impl Fn(usize) -> bool) -> Option<Label> {
     let [nx, ny, nz] = scan.dims;
     let (ci, cj, ck) = ((centre % nx) as i64, ((centre / nx) % ny) as i64, (centre / (nx * ny)) as i64);
+    let [si, sj, sk] = Calibration::outside_steps(scan.spacing).map(|s| s as i64);
     let mut grey: Vec<f32> = Vec::with_capacity(125);
     for dk in -2i64..=2 {
         for dj in -2i64..=2 {
             for di in -2i64..=2 {
-                let (x, y, z) = (ci + di, cj + dj, ck + dk);
+                let (x, y, z) = (ci + si * di, cj + sj * dj, ck + sk * dk);
                 if x < 0 || y < 0 || z < 0 || x >= nx as i64 || y >= ny as i64 || z >= nz as i64 {
                     continue;
                 }
