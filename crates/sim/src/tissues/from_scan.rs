@@ -11,13 +11,13 @@ use dentsim_cbct::volume::face_neighbours;
 use dentsim_cbct::{calibrate, crop, crop_labels, enclosed_volume, find_teeth, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
 
 use dentsim_vdb::{LevelSet, TriMesh};
-use glam::DVec3;
 use serde::Serialize;
 
 use crate::error::{invalid, stopped, Error, Result};
 use crate::tissues::field;
 use crate::tissues::model::TissueModel;
 use crate::tissues::table::TissueTable;
+use crate::tissues::warnings::{canal_shortfall, canal_warning, pulp_fit_warning, pulp_warning, MIN_PULP_SHARE};
 
 #[derive(Clone, Debug)]
 pub struct TissuesFromScan {
@@ -91,131 +91,6 @@ pub struct ScanReport {
     /// What looks wrong with the result and what to try ([`pulp_warning`]); empty when nothing.
     pub warnings: Vec<String>,
     pub seconds: Timings,
-}
-
-/// A tooth's pulp below this share of the tooth (enamel, dentin and pulp) is implausibly small:
-/// a pulp is 2–5 % of a tooth (an old tooth's, narrowed by secondary dentin, ~1 %), so less is
-/// more likely a pulp cavity the segmentation lost (opened to the outside at a thin apex, or
-/// its canals read as dentin) than anatomy.
-pub const MIN_PULP_SHARE: f64 = 0.004;
-
-/// A warning when the tooth has no pulp or an implausibly small one ([`MIN_PULP_SHARE`]),
-/// saying what to try: the result is kept (a tooth may have lost its pulp to calcification),
-/// never silently.
-pub fn pulp_warning(tissues: &[SegmentedTissue], calibration: &Calibration) -> Option<String> {
-    let volume = |name: &str| tissues.iter().find(|t| t.name == name).map_or(0.0, |t| t.volume_mm3);
-    let (pulp, tooth) = (volume("pulp"), volume("enamel") + volume("dentin") + volume("pulp"));
-    if tooth <= 0.0 || pulp >= MIN_PULP_SHARE * tooth {
-        return None;
-    }
-    let found = if pulp <= 0.0 { "no pulp was found".to_string() } else { format!("the pulp is {pulp:.2} mm³, {:.2} % of the tooth (a pulp is 2–5 %)", 100.0 * pulp / tooth) };
-    Some(format!(
-        "{found}: the pulp cavity may have been lost (opened to the outside at a thin apex, or its canals read as dentin). \
-         Check the grey values (calibration: dentin {:.1}, enamel {:.1}, tooth/outside threshold {:.1}) and try --thresholds \
-         with the grey of the medium around the tooth, the dentin and the enamel (e.g. --thresholds air={:.1},dentin={:.1},enamel={:.1})",
-        calibration.peak(Label::Dentin),
-        calibration.peak(Label::Enamel),
-        calibration.hard_cut(),
-        calibration.peak(Label::Air),
-        calibration.peak(Label::Dentin),
-        calibration.peak(Label::Enamel),
-    ))
-}
-
-/// Where the pulp's surface and its partial-volume measure still differ by more than this share
-/// after the fit, the surface could not follow the scan (on the family they differ by ≤ 0.4 %).
-pub const MAX_PULP_FIT_GAP: f64 = 0.03;
-
-/// A warning when the pulp's surface could not be moved to its partial-volume measure (the fit
-/// stops at half a voxel): canals or horns about a voxel wide, which the scan's grey shows but a
-/// smooth surface at its resolution cannot hold. Which volume is right is then unknown, and the
-/// user is told so rather than given either one silently.
-pub fn pulp_fit_warning(tissues: &[SegmentedTissue], calibration: &Calibration, scan_voxel_mm: f64) -> Option<String> {
-    let pulp = tissues.iter().find(|t| t.name == "pulp")?;
-    let measure = pulp.partial_volume.as_ref()?;
-    if measure.volume_mm3 <= 0.0 || (pulp.volume_mm3 / measure.volume_mm3 - 1.0).abs() <= MAX_PULP_FIT_GAP {
-        return None;
-    }
-    let grey = if measure.tissue_grey_measured {
-        format!("the pulp's grey {:.1} measured in its deepest voxels", measure.tissue_grey)
-    } else if calibration.shows(Label::Pulp) {
-        format!("the pulp's grey {:.1} as given", measure.tissue_grey)
-    } else {
-        format!(
-            "the pulp's grey {:.1} predicted by the calibration's line, since no pulp voxel lies deep enough to show it; \
-             where it is known, give it to --thresholds beside the others (e.g. --thresholds air={:.1},pulp=GREY,dentin={:.1},enamel={:.1})",
-            measure.tissue_grey,
-            calibration.peak(Label::Air),
-            calibration.peak(Label::Dentin),
-            calibration.peak(Label::Enamel),
-        )
-    };
-    Some(format!(
-        "the pulp's surface encloses {:.2} mm³ where the scan's grey measures {:.2} mm³ ({grey}; the surface was moved {:+.3} mm, \
-         the most it may): the pulp has canals or horns about a voxel wide that a {scan_voxel_mm:.2} mm scan does not resolve, \
-         so its volume is uncertain. A scan with voxels about a third of the canals' width resolves them",
-        pulp.volume_mm3, measure.volume_mm3, pulp.surface_offset_mm,
-    ))
-}
-
-/// A canal normally runs to within 1–2 mm of its root's apex; a pulp ending farther short than
-/// this share of the dentin's length (apex to crown) has lost its canals: a pulp ending at the
-/// crown's base, not an apex narrowed by age (the family: 10–20 %; its canals lost: 55–65 %).
-pub const MAX_CANAL_SHORTFALL: f64 = 0.33;
-
-/// A warning when the pulp ends `short_mm` short of the root's apex, more than
-/// [`MAX_CANAL_SHORTFALL`] of the dentin's `length_mm`: its canals were not found.
-pub fn canal_warning(short_mm: f64, length_mm: f64, scan_voxel_mm: f64) -> Option<String> {
-    if !(short_mm > MAX_CANAL_SHORTFALL * length_mm) {
-        return None;
-    }
-    Some(format!(
-        "the pulp ends {short_mm:.1} mm short of the root's apex, on a dentin {length_mm:.1} mm long from apex to crown (a canal runs to within 1–2 mm of the apex): \
-         the root canals were not found, as canals about two voxels wide (at {scan_voxel_mm:.2} mm, {:.1} mm) often are not, \
-         so the pulp's volume leaves them out. Check the canals in the scan; a scan with voxels about a third of their width resolves them",
-        2.0 * scan_voxel_mm
-    ))
-}
-
-/// Where along the tooth's long axis its pulp ends against its root: (mm from the pulp's
-/// deepest voxel to the root's apex, the dentin's length in mm from the apex to the crown's
-/// dentin–enamel junction). The axis is the dentin and pulp's principal one, its crown end the
-/// junction's side; `None` without pulp, dentin or enamel.
-fn canal_shortfall(scan: &Volume, labels: &dentsim_cbct::LabelVolume) -> Option<(f64, f64)> {
-    let (d, p, e) = (Label::Dentin as u8, Label::Pulp as u8, Label::Enamel as u8);
-    let [nx, ny, nz] = scan.dims;
-    let at = |n: usize| DVec3::from(scan.voxel_center(n % nx, (n / nx) % ny, n / (nx * ny)));
-    let body: Vec<usize> = (0..labels.labels.len()).filter(|&n| labels.labels[n] == d || labels.labels[n] == p).collect();
-    // The junction: enamel voxels with a dentin face neighbour (enamel alone may be a neighbour's).
-    let junction: Vec<usize> = (0..labels.labels.len())
-        .filter(|&n| labels.labels[n] == e && face_neighbours(n, [nx, ny, nz]).into_iter().flatten().any(|m| labels.labels[m] == d))
-        .collect();
-    if body.is_empty() || junction.is_empty() || !labels.labels.contains(&p) {
-        return None;
-    }
-    let centre = body.iter().map(|&n| at(n)).sum::<DVec3>() / body.len() as f64;
-    let mut spread = glam::DMat3::ZERO;
-    for &n in &body {
-        let r = at(n) - centre;
-        spread += glam::DMat3::from_cols(r * r.x, r * r.y, r * r.z);
-    }
-    // The principal axis by power iteration (the long axis dominates a tooth's spread).
-    let mut axis = DVec3::new(0.3, 0.5, 0.8);
-    for _ in 0..64 {
-        axis = (spread * axis).normalize_or_zero();
-    }
-    if axis == DVec3::ZERO {
-        return None;
-    }
-    let crown = junction.iter().map(|&n| at(n)).sum::<DVec3>() / junction.len() as f64;
-    if (crown - centre).dot(axis) < 0.0 {
-        axis = -axis;
-    }
-    let along = |n: usize| (at(n) - centre).dot(axis);
-    let (lo, hi) = body.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &n| (lo.min(along(n)), hi.max(along(n))));
-    let top = junction.iter().map(|&n| along(n)).fold(hi, f64::max);
-    let pulp_end = body.iter().filter(|&&n| labels.labels[n] == p).map(|&n| along(n)).fold(f64::INFINITY, f64::min);
-    Some((pulp_end - lo, top - lo))
 }
 
 /// Whether the tooth's labels hold no pulp, or one implausibly small ([`MIN_PULP_SHARE`] of
@@ -1566,85 +1441,8 @@ mod tests {
     use glam::DVec3;
     use std::time::Duration;
 
-    fn tissue(name: &str, volume_mm3: f64) -> SegmentedTissue {
-        SegmentedTissue { name: name.into(), volume_mm3, scan_voxels: 0, active_voxels: 0, partial_volume: None, surface_offset_mm: 0.0 }
-    }
-
     /// A tooth without a pulp, or with a speck of one, is reported with what to try; a tooth
     /// with a pulp of a tooth's share is not.
-    #[test]
-    fn a_tooth_without_a_pulp_is_never_silent() {
-        let cal = Calibration::manual(&[(Label::Air, 0.0), (Label::Dentin, 2000.0), (Label::Enamel, 3000.0)]).unwrap();
-        let none = pulp_warning(&[tissue("enamel", 300.0), tissue("dentin", 400.0)], &cal).expect("no pulp: a warning");
-        assert!(none.starts_with("no pulp was found") && none.contains("--thresholds air=") && none.contains("dentin=2000.0"), "{none}");
-        let speck = pulp_warning(&[tissue("enamel", 300.0), tissue("dentin", 400.0), tissue("pulp", 1.0)], &cal).expect("a speck of pulp: a warning");
-        assert!(speck.contains("the pulp is 1.00 mm³") && speck.contains("--thresholds"), "{speck}");
-        assert_eq!(pulp_warning(&[tissue("enamel", 300.0), tissue("dentin", 400.0), tissue("pulp", 20.0)], &cal), None);
-    }
-
-    #[test]
-    fn a_pulp_its_surface_cannot_follow_is_never_silent() {
-        let cal = Calibration::manual(&[(Label::Air, -1000.0), (Label::Dentin, 1800.0), (Label::Enamel, 2900.0)]).unwrap();
-        let pulp = |volume: f64, measure: f64, measured: bool| SegmentedTissue {
-            partial_volume: Some(PartialVolume { volume_mm3: measure, tissue_grey: 136.0, surround_grey: 1784.0, tissue_grey_measured: measured, voxels: 1473 }),
-            surface_offset_mm: 0.2,
-            ..tissue("pulp", volume)
-        };
-        let lost = pulp_fit_warning(&[tissue("enamel", 200.0), pulp(12.2, 14.53, false)], &cal, 0.4).expect("16 % apart: a warning");
-        assert!(lost.contains("encloses 12.20 mm³") && lost.contains("measures 14.53 mm³") && lost.contains("0.40 mm scan"), "{lost}");
-        assert!(lost.contains("predicted") && lost.contains("--thresholds air=-1000.0,pulp=GREY,dentin=1800.0,enamel=2900.0"), "{lost}");
-        let measured = pulp_fit_warning(&[pulp(12.2, 14.53, true)], &cal, 0.4).expect("a warning");
-        assert!(measured.contains("measured in its deepest voxels") && !measured.contains("--thresholds"), "{measured}");
-        // Within the fit's reach: nothing to say; no pulp or no measure: another warning's case.
-        assert_eq!(pulp_fit_warning(&[pulp(14.2, 14.53, false)], &cal, 0.4), None);
-        assert_eq!(pulp_fit_warning(&[tissue("pulp", 14.2)], &cal, 0.4), None);
-        assert_eq!(pulp_fit_warning(&[tissue("dentin", 300.0)], &cal, 0.4), None);
-    }
-
-    /// A tooth lying along a tilted axis (crown toward +x+y): dentin a bar, enamel capping its
-    /// crown end, the pulp a chamber under it with or without its canal.
-    fn tilted_tooth(canal: bool) -> (Volume, dentsim_cbct::LabelVolume) {
-        let dims = [40usize, 40, 12];
-        let (c, s) = (std::f64::consts::FRAC_1_SQRT_2, std::f64::consts::FRAC_1_SQRT_2);
-        let direction = [[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]];
-        let scan = Volume { dims, spacing: [0.25, 0.25, 0.4], origin: [10.0, -5.0, 3.0], direction, values: vec![0.0; dims.iter().product()], source: Default::default() };
-        let mut labels = scan.label_volume();
-        for n in 0..labels.labels.len() {
-            let (i, j, k) = (n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1]));
-            let (across, deep) = ((j as f64 - 20.0).hypot((k as f64 - 6.0) * 1.6), i as f64);
-            labels.labels[n] = if (2.0..=34.0).contains(&deep) && across <= 5.0 {
-                if deep >= 31.0 {
-                    Label::Enamel
-                } else if across <= 1.2 && (deep >= 24.0 || (canal && deep >= 4.0)) {
-                    Label::Pulp
-                } else {
-                    Label::Dentin
-                }
-            } else {
-                Label::Air
-            } as u8;
-        }
-        (scan, labels)
-    }
-
-    #[test]
-    fn a_pulp_ending_at_the_crowns_base_is_said() {
-        // Along the tooth's tilted axis (index x, 0.25 mm): apex at 2, pulp from 24 (or 4), the
-        // dentin–enamel junction at 31.
-        let (scan, without) = tilted_tooth(false);
-        let (short, length) = canal_shortfall(&scan, &without).expect("a tooth with a pulp");
-        assert!((short - 22.0 * 0.25).abs() < 0.01 && (length - 29.0 * 0.25).abs() < 0.01, "short {short} of {length} mm");
-        let said = canal_warning(short, length, 0.25).expect("canals lost: a warning");
-        assert!(said.contains("5.5 mm short of the root's apex") && (said.contains("dentin 7.2 mm long") || said.contains("dentin 7.3 mm long")), "{said}");
-        let (_, with) = tilted_tooth(true);
-        let (short, length) = canal_shortfall(&scan, &with).unwrap();
-        assert!((short - 0.5).abs() < 0.01, "short {short} of {length} mm");
-        assert_eq!(canal_warning(short, length, 0.25), None);
-        let mut no_pulp = with;
-        no_pulp.labels.iter_mut().filter(|l| **l == Label::Pulp as u8).for_each(|l| *l = Label::Dentin as u8);
-        assert_eq!(canal_shortfall(&scan, &no_pulp), None);
-    }
-
     /// A shell between a ball (the tooth) and a smaller ball poking out of it (the core) tapers
     /// to nothing at the rim where the two spheres cross, as the enamel does at the cervical
     /// edge. Cut at t, no triangle of what is left lies where the shell is thinner than t (less

@@ -1,5 +1,6 @@
 //! Tissues: the property table, the model (one narrow-band level set per tissue), the analytic
-//! capsule phantom, tissues from a CBCT scan, their surfaces (the one mesher) and exports.
+//! capsule phantom, tissues from a CBCT scan and what it could not read, their surfaces (the one
+//! mesher) and exports.
 pub mod capsule;
 pub mod export;
 pub mod field;
@@ -7,6 +8,7 @@ pub mod from_scan;
 pub mod model;
 pub mod surface;
 pub mod table;
+pub mod warnings;
 
 #[cfg(test)]
 pub(crate) mod test_shapes {
