@@ -93,6 +93,16 @@ pub struct ScanReport {
     pub seconds: Timings,
 }
 
+/// The report's warnings (see [`crate::tissues::warnings`]): a missing or implausibly small
+/// pulp, `canal` (its canals lost), a pulp surface the fit could not bring to its measure.
+fn scan_warnings(tissues: &[SegmentedTissue], calibration: &Calibration, canal: Option<String>, scan_voxel_mm: f64) -> Vec<String> {
+    let volume = |name: &str| tissues.iter().find(|t| t.name == name).map_or(0.0, |t| t.volume_mm3);
+    let pulp = tissues.iter().find(|t| t.name == "pulp");
+    let unresolved = pulp.and_then(|p| pulp_fit_warning(p.volume_mm3, p.partial_volume.as_ref()?, p.surface_offset_mm, calibration, scan_voxel_mm));
+    let missing = pulp_warning(volume("pulp"), volume("enamel") + volume("dentin") + volume("pulp"), calibration);
+    [missing, canal, unresolved].into_iter().flatten().collect()
+}
+
 /// Whether the tooth's labels hold no pulp, or one implausibly small ([`MIN_PULP_SHARE`] of
 /// the tooth's voxels).
 fn pulp_lost(labels: &dentsim_cbct::LabelVolume) -> bool {
@@ -291,7 +301,7 @@ impl TissuesFromScan {
             rim_voxels_peeled: rim,
             canal_voxels_traced: canal_voxels,
             edge_blur_mm: builder.edge_blur_mm,
-            warnings: [pulp_warning(&tissues, &calibration), canal_warning, pulp_fit_warning(&tissues, &calibration, tooth_scan.min_spacing())].into_iter().flatten().collect(),
+            warnings: scan_warnings(&tissues, &calibration, canal_warning, tooth_scan.min_spacing()),
             calibration,
             found: None,
             tissues,

@@ -3,10 +3,8 @@
 //! follow the scan's grey. Each result is kept and never silent: the warning says what was found
 //! and what to try.
 use dentsim_cbct::volume::face_neighbours;
-use dentsim_cbct::{Calibration, Label, Volume};
+use dentsim_cbct::{Calibration, Label, PartialVolume, Volume};
 use glam::DVec3;
-
-use crate::tissues::from_scan::SegmentedTissue;
 
 /// A tooth's pulp below this share of the tooth (enamel, dentin and pulp) is implausibly small:
 /// a pulp is 2–5 % of a tooth (an old tooth's, narrowed by secondary dentin, ~1 %), so less is
@@ -14,12 +12,10 @@ use crate::tissues::from_scan::SegmentedTissue;
 /// its canals read as dentin) than anatomy.
 pub const MIN_PULP_SHARE: f64 = 0.004;
 
-/// A warning when the tooth has no pulp or an implausibly small one ([`MIN_PULP_SHARE`]),
-/// saying what to try: the result is kept (a tooth may have lost its pulp to calcification),
-/// never silently.
-pub fn pulp_warning(tissues: &[SegmentedTissue], calibration: &Calibration) -> Option<String> {
-    let volume = |name: &str| tissues.iter().find(|t| t.name == name).map_or(0.0, |t| t.volume_mm3);
-    let (pulp, tooth) = (volume("pulp"), volume("enamel") + volume("dentin") + volume("pulp"));
+/// A warning when the tooth (`tooth` mm³ of enamel, dentin and pulp) has no pulp or an
+/// implausibly small one ([`MIN_PULP_SHARE`]), saying what to try: the result is kept (a tooth
+/// may have lost its pulp to calcification), never silently.
+pub fn pulp_warning(pulp: f64, tooth: f64, calibration: &Calibration) -> Option<String> {
     if tooth <= 0.0 || pulp >= MIN_PULP_SHARE * tooth {
         return None;
     }
@@ -44,11 +40,10 @@ pub const MAX_PULP_FIT_GAP: f64 = 0.03;
 /// A warning when the pulp's surface could not be moved to its partial-volume measure (the fit
 /// stops at half a voxel): canals or horns about a voxel wide, which the scan's grey shows but a
 /// smooth surface at its resolution cannot hold. Which volume is right is then unknown, and the
-/// user is told so rather than given either one silently.
-pub fn pulp_fit_warning(tissues: &[SegmentedTissue], calibration: &Calibration, scan_voxel_mm: f64) -> Option<String> {
-    let pulp = tissues.iter().find(|t| t.name == "pulp")?;
-    let measure = pulp.partial_volume.as_ref()?;
-    if measure.volume_mm3 <= 0.0 || (pulp.volume_mm3 / measure.volume_mm3 - 1.0).abs() <= MAX_PULP_FIT_GAP {
+/// user is told so rather than given either one silently. `pulp`: the surface's volume (mm³)
+/// after the fit moved it `offset_mm`.
+pub fn pulp_fit_warning(pulp: f64, measure: &PartialVolume, offset_mm: f64, calibration: &Calibration, scan_voxel_mm: f64) -> Option<String> {
+    if measure.volume_mm3 <= 0.0 || (pulp / measure.volume_mm3 - 1.0).abs() <= MAX_PULP_FIT_GAP {
         return None;
     }
     let grey = if measure.tissue_grey_measured {
@@ -69,7 +64,7 @@ pub fn pulp_fit_warning(tissues: &[SegmentedTissue], calibration: &Calibration, 
         "the pulp's surface encloses {:.2} mm³ where the scan's grey measures {:.2} mm³ ({grey}; the surface was moved {:+.3} mm, \
          the most it may): the pulp has canals or horns about a voxel wide that a {scan_voxel_mm:.2} mm scan does not resolve, \
          so its volume is uncertain. A scan with voxels about a third of the canals' width resolves them",
-        pulp.volume_mm3, measure.volume_mm3, pulp.surface_offset_mm,
+        pulp, measure.volume_mm3, offset_mm,
     ))
 }
 
@@ -136,39 +131,32 @@ pub(crate) fn canal_shortfall(scan: &Volume, labels: &dentsim_cbct::LabelVolume)
 #[cfg(test)]
 mod tests {
     use super::*;
-    use dentsim_cbct::PartialVolume;
-
-    fn tissue(name: &str, volume_mm3: f64) -> SegmentedTissue {
-        SegmentedTissue { name: name.into(), volume_mm3, scan_voxels: 0, active_voxels: 0, partial_volume: None, surface_offset_mm: 0.0 }
-    }
 
     #[test]
     fn a_tooth_without_a_pulp_is_never_silent() {
         let cal = Calibration::manual(&[(Label::Air, 0.0), (Label::Dentin, 2000.0), (Label::Enamel, 3000.0)]).unwrap();
-        let none = pulp_warning(&[tissue("enamel", 300.0), tissue("dentin", 400.0)], &cal).expect("no pulp: a warning");
+        let none = pulp_warning(0.0, 700.0, &cal).expect("no pulp: a warning");
         assert!(none.starts_with("no pulp was found") && none.contains("--thresholds air=") && none.contains("dentin=2000.0"), "{none}");
-        let speck = pulp_warning(&[tissue("enamel", 300.0), tissue("dentin", 400.0), tissue("pulp", 1.0)], &cal).expect("a speck of pulp: a warning");
+        let speck = pulp_warning(1.0, 701.0, &cal).expect("a speck of pulp: a warning");
         assert!(speck.contains("the pulp is 1.00 mm³") && speck.contains("--thresholds"), "{speck}");
-        assert_eq!(pulp_warning(&[tissue("enamel", 300.0), tissue("dentin", 400.0), tissue("pulp", 20.0)], &cal), None);
+        assert_eq!(pulp_warning(20.0, 720.0, &cal), None);
+        assert_eq!(pulp_warning(0.0, 0.0, &cal), None);
     }
 
     #[test]
     fn a_pulp_its_surface_cannot_follow_is_never_silent() {
         let cal = Calibration::manual(&[(Label::Air, -1000.0), (Label::Dentin, 1800.0), (Label::Enamel, 2900.0)]).unwrap();
-        let pulp = |volume: f64, measure: f64, measured: bool| SegmentedTissue {
-            partial_volume: Some(PartialVolume { volume_mm3: measure, tissue_grey: 136.0, surround_grey: 1784.0, tissue_grey_measured: measured, voxels: 1473 }),
-            surface_offset_mm: 0.2,
-            ..tissue("pulp", volume)
-        };
-        let lost = pulp_fit_warning(&[tissue("enamel", 200.0), pulp(12.2, 14.53, false)], &cal, 0.4).expect("16 % apart: a warning");
-        assert!(lost.contains("encloses 12.20 mm³") && lost.contains("measures 14.53 mm³") && lost.contains("0.40 mm scan"), "{lost}");
+        let measure = |volume_mm3: f64, measured: bool| PartialVolume { volume_mm3, tissue_grey: 136.0, surround_grey: 1784.0, tissue_grey_measured: measured, voxels: 1473 };
+        let lost = pulp_fit_warning(12.2, &measure(14.53, false), 0.2, &cal, 0.4).expect("16 % apart: a warning");
+        assert!(lost.contains("encloses 12.20 mm³") && lost.contains("measures 14.53 mm³") && lost.contains("0.40 mm scan") && lost.contains("+0.200 mm"), "{lost}");
         assert!(lost.contains("predicted") && lost.contains("--thresholds air=-1000.0,pulp=GREY,dentin=1800.0,enamel=2900.0"), "{lost}");
-        let measured = pulp_fit_warning(&[pulp(12.2, 14.53, true)], &cal, 0.4).expect("a warning");
+        let measured = pulp_fit_warning(12.2, &measure(14.53, true), 0.2, &cal, 0.4).expect("a warning");
         assert!(measured.contains("measured in its deepest voxels") && !measured.contains("--thresholds"), "{measured}");
-        // Within the fit's reach: nothing to say; no pulp or no measure: another warning's case.
-        assert_eq!(pulp_fit_warning(&[pulp(14.2, 14.53, false)], &cal, 0.4), None);
-        assert_eq!(pulp_fit_warning(&[tissue("pulp", 14.2)], &cal, 0.4), None);
-        assert_eq!(pulp_fit_warning(&[tissue("dentin", 300.0)], &cal, 0.4), None);
+        let given = Calibration::manual(&[(Label::Air, -1000.0), (Label::Pulp, 300.0), (Label::Dentin, 1800.0), (Label::Enamel, 2900.0)]).unwrap();
+        let as_given = pulp_fit_warning(12.2, &measure(14.53, false), 0.2, &given, 0.4).expect("a warning");
+        assert!(as_given.contains("as given") && !as_given.contains("--thresholds"), "{as_given}");
+        // Within the fit's reach: nothing to say.
+        assert_eq!(pulp_fit_warning(14.2, &measure(14.53, false), 0.1, &cal, 0.4), None);
     }
 
     /// A tooth lying along a tilted axis (crown toward +x+y): dentin a bar, enamel capping its
