@@ -19,7 +19,8 @@ incisor in air at 0.4 mm, its pulp 300 HU, NIfTI float: its canal two voxels wid
 incisor_jaw_wide (the incisor in bone, soft tissue and air over a wider field of view at 0.25 mm,
 its pulp 40 HU, NIfTI int16: the jaw's blurred edges make more histogram bumps than the enamel), or
 incisor_jaw_fine (the same at 0.1 mm: the point spread two voxels wide, its crown above the gum in
-air). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+air), or custom (the sweep's: SHAPE molar|incisor, MEDIUM air|water|jaw, VOXEL mm, PULP HU and SEED
+from the environment, HU as stored, NIfTI int16; see sweep.py). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -30,14 +31,19 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-rng = np.random.default_rng({"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15, "water12": 16, "scaled": 17, "fine": 18, "incisor_jaw": 19, "incisor_coarse": 20, "incisor_jaw_wide": 191, "incisor_jaw_fine": 21}[CASE])
-JAW = CASE in ("jaw", "socket", "incisor_jaw", "incisor_jaw_wide", "incisor_jaw_fine")
+CUSTOM = CASE == "custom"
+if CUSTOM:
+    SHAPE, MEDIUM = os.environ.get("SHAPE", "molar"), os.environ.get("MEDIUM", "air")
+    VOXEL, PULP_HU, SEED = float(os.environ.get("VOXEL", "0.3")), float(os.environ.get("PULP", "40")), int(os.environ.get("SEED", "1"))
+INCISOR = CASE in ("incisor", "incisor_jaw", "incisor_coarse", "incisor_jaw_wide", "incisor_jaw_fine") or (CUSTOM and SHAPE == "incisor")
+rng = np.random.default_rng(SEED if CUSTOM else {"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15, "water12": 16, "scaled": 17, "fine": 18, "incisor_jaw": 19, "incisor_coarse": 20, "incisor_jaw_wide": 191, "incisor_jaw_fine": 21}[CASE])
+JAW = CASE in ("jaw", "socket", "incisor_jaw", "incisor_jaw_wide", "incisor_jaw_fine") or (CUSTOM and MEDIUM == "jaw")
 
 # Grid in the tooth's own frame (mm): z along the tooth, occlusal up; fine grid for the truth and
 # the partial volume, averaged into the scan's voxels.
-spacing = {"jaw": (0.2, 0.2, 0.2), "socket": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3), "incisor": (0.2, 0.2, 0.2), "water12": (0.3, 0.3, 0.3), "scaled": (0.25, 0.25, 0.25), "fine": (0.1, 0.1, 0.1), "incisor_jaw": (0.4, 0.4, 0.4), "incisor_coarse": (0.4, 0.4, 0.4), "incisor_jaw_wide": (0.25, 0.25, 0.25), "incisor_jaw_fine": (0.1, 0.1, 0.1)}[CASE]
-FINE = 2 if CASE in ("fine", "incisor_jaw_fine") else 3  # sub-samples per voxel and axis
-extent = ((-7.0, 7.0), (-7.0, 7.0), (-16.0, 12.0 if CASE in ("incisor", "incisor_coarse", "incisor_jaw_wide", "incisor_jaw_fine") else 10.0))  # the incisor's crown is 10 mm tall
+spacing = (VOXEL,) * 3 if CUSTOM else {"jaw": (0.2, 0.2, 0.2), "socket": (0.2, 0.2, 0.2), "air": (0.25, 0.25, 0.25), "water": (0.15, 0.15, 0.3), "incisor": (0.2, 0.2, 0.2), "water12": (0.3, 0.3, 0.3), "scaled": (0.25, 0.25, 0.25), "fine": (0.1, 0.1, 0.1), "incisor_jaw": (0.4, 0.4, 0.4), "incisor_coarse": (0.4, 0.4, 0.4), "incisor_jaw_wide": (0.25, 0.25, 0.25), "incisor_jaw_fine": (0.1, 0.1, 0.1)}[CASE]
+FINE = 2 if CASE in ("fine", "incisor_jaw_fine") or (CUSTOM and VOXEL <= 0.15) else 3  # sub-samples per voxel and axis
+extent = ((-7.0, 7.0), (-7.0, 7.0), (-16.0, 12.0 if INCISOR else 10.0))  # the incisor's crown is 10 mm tall
 if CASE == "incisor_jaw":  # a field of view filled by the jaw's bone
     extent = ((-6.0, 6.0), (-5.5, 5.5), (-15.0, 12.0))
 dims = [int(round((hi - lo) / s)) for (lo, hi), s in zip(extent, spacing)]
@@ -56,7 +62,7 @@ def superellipsoid(cx, cy, cz, a, b, c, p):
 
 
 radius = lambda top, bottom: top + (bottom - top) * np.clip(-z / 13.0, 0.0, 1.0)  # noqa: E731
-if CASE in ("incisor", "incisor_jaw", "incisor_coarse", "incisor_jaw_wide", "incisor_jaw_fine"):
+if INCISOR:
     # A chisel-shaped crown 8.6 x 6.6 x 10 mm over a root narrowing to 0.8 x 0.7 mm at its apex;
     # the canal (0.8 mm wide) ends 1 mm above it, 0.4 mm from the root's side.
     crown = superellipsoid(0.0, 0.0, 4.5, 4.3, 3.3, 5.5, 2.3) & (z >= -0.5)
@@ -77,7 +83,7 @@ pulp &= tooth & ~enamel
 dentin = tooth & ~enamel & ~pulp
 
 # Grey values in the scanner's units (not HU): each case its own scale and offset.
-grey = {
+grey = dict(air=-1000, soft=40, bone=1100, water=0, dentin=1800, enamel=2900, pulp=PULP_HU, scale=1.0, offset=0) if CUSTOM else {
     "jaw": dict(air=-1000, soft=40, bone=1100, dentin=1900, enamel=3000, pulp=40, scale=1.0, offset=0),
     "socket": dict(air=-1000, soft=40, bone=1100, dentin=1900, enamel=3000, pulp=40, scale=1.0, offset=0),
     "air": dict(air=-1000, wax=-80, dentin=1750, enamel=2800, pulp=-1000, scale=0.6, offset=-300),
@@ -100,7 +106,7 @@ if JAW:
     medium = np.where(bone, grey["bone"], np.where(z <= 3.0, grey["soft"], grey["air"]))
 elif CASE == "air":
     medium = np.where(z <= -9.0, grey["wax"], grey["air"]) + 0 * x * y  # root tip in a wax block
-elif CASE in ("incisor", "scaled", "fine", "incisor_coarse"):
+elif CASE in ("incisor", "scaled", "fine", "incisor_coarse") or (CUSTOM and MEDIUM == "air"):
     medium = np.full((1, 1, 1), grey["air"]) + 0 * x * y * z
 else:
     medium = np.full((1, 1, 1), grey["water"]) + 0 * x * y * z
@@ -172,7 +178,7 @@ else:
     affine[:3, :3] = np.diag([-1.0, -1.0, 1.0]) @ rotation @ np.diag(spacing)
     affine[:3, 3] = np.diag([-1.0, -1.0, 1.0]) @ origin
     path = os.path.join(OUT, "tooth.nii.gz")
-    image = nibabel.Nifti1Image(scan.astype(np.int16 if JAW or CASE == "scaled" else np.float32), affine)
+    image = nibabel.Nifti1Image(scan.astype(np.int16 if JAW or CASE in ("scaled", "custom") else np.float32), affine)
     image.set_qform(affine, code=1)
     image.set_sform(affine, code=1)
     if CASE == "scaled":  # the values are 2 * stored - 1000
