@@ -2,7 +2,7 @@
 //! the slab between two planes (seed 001's model reduction). Geometry stays in the patient frame.
 
 use crate::error::{Error, Result};
-use crate::volume::{LabelVolume, Volume};
+use crate::volume::{center_of, LabelVolume, Volume};
 use crate::{dot, normalize, Label};
 
 /// Valid ISO 3950 tooth number (permanent 11–48, primary 51–85).
@@ -47,6 +47,34 @@ fn crop_vec<T: Copy>(v: &[T], dims: [usize; 3], b: &IndexBox) -> Vec<T> {
         }
     }
     out
+}
+
+/// `v` (of `dims`) with `low` and `high` samples of `fill` laid beyond each side, and its dims.
+fn pad_vec<T: Copy>(v: &[T], dims: [usize; 3], low: [usize; 3], high: [usize; 3], fill: T) -> (Vec<T>, [usize; 3]) {
+    let padded: [usize; 3] = std::array::from_fn(|c| dims[c] + low[c] + high[c]);
+    let mut out = vec![fill; padded.iter().product()];
+    for k in 0..dims[2] {
+        for j in 0..dims[1] {
+            let (from, to) = (dims[0] * (j + dims[1] * k), low[0] + padded[0] * ((j + low[1]) + padded[1] * (k + low[2])));
+            out[to..to + dims[0]].copy_from_slice(&v[from..from + dims[0]]);
+        }
+    }
+    (out, padded)
+}
+
+/// The volume grown by `low` and `high` voxels of grey `fill` beyond each side (index axes);
+/// its origin moves so that every voxel keeps its place in the patient frame.
+pub fn pad(vol: &Volume, low: [usize; 3], high: [usize; 3], fill: f32) -> Volume {
+    let (values, dims) = pad_vec(&vol.values, vol.dims, low, high, fill);
+    let origin = center_of(vol.spacing, vol.origin, vol.direction, low.map(|l| -(l as f64)));
+    Volume { dims, origin, values, spacing: vol.spacing, direction: vol.direction, source: vol.source.clone() }
+}
+
+/// [`pad`] for labels, the new voxels labelled `fill`.
+pub fn pad_labels(lv: &LabelVolume, low: [usize; 3], high: [usize; 3], fill: Label) -> LabelVolume {
+    let (labels, dims) = pad_vec(&lv.labels, lv.dims, low, high, fill as u8);
+    let origin = center_of(lv.spacing, lv.origin, lv.direction, low.map(|l| -(l as f64)));
+    LabelVolume { dims, origin, labels, spacing: lv.spacing, direction: lv.direction }
 }
 
 /// The sub-volume inside the box; its origin moves to the box's first voxel.
@@ -162,4 +190,34 @@ pub fn crop_between_planes(vol: &Volume, a: &Plane, b: &Plane) -> Result<Volume>
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_padded_volume_keeps_every_voxel_in_its_place() {
+        let (c, s) = (0.6f64, 0.8f64);
+        let vol = Volume {
+            dims: [3, 2, 2],
+            spacing: [0.2, 0.3, 0.4],
+            origin: [10.0, -5.0, 2.0],
+            direction: [[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]],
+            values: (0..12).map(|v| v as f32).collect(),
+            source: Default::default(),
+        };
+        let (low, high) = ([2, 0, 1], [0, 1, 2]);
+        let padded = pad(&vol, low, high, -1.0);
+        assert_eq!(padded.dims, [5, 3, 5]);
+        for (k, j, i) in (0..2).flat_map(|k| (0..2).flat_map(move |j| (0..3).map(move |i| (k, j, i)))) {
+            let (a, b) = (vol.voxel_center(i, j, k), padded.voxel_center(i + 2, j, k + 1));
+            assert!((0..3).all(|r| (a[r] - b[r]).abs() < 1e-12), "{a:?} vs {b:?}");
+            assert_eq!(padded.value_at(i + 2, j, k + 1), vol.value_at(i, j, k));
+        }
+        assert_eq!(padded.values.iter().filter(|&&v| v == -1.0).count(), 5 * 3 * 5 - 12);
+        let labels = pad_labels(&vol.label_volume(), low, high, Label::Air);
+        assert_eq!((labels.dims, labels.origin), (padded.dims, padded.origin));
+        assert_eq!(labels.count(Label::Air), labels.labels.len());
+    }
 }

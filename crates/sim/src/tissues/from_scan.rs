@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use dentsim_cbct::phantom::gaussian_blur;
 use dentsim_cbct::volume::face_neighbours;
-use dentsim_cbct::{calibrate, crop, crop_labels, enclosed_volume, find_teeth, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
+use dentsim_cbct::{calibrate, crop, crop_labels, enclosed_volume, find_teeth, pad, pad_labels, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
 
 use dentsim_vdb::{LevelSet, TriMesh};
 use serde::Serialize;
@@ -376,40 +376,16 @@ fn close_at_the_field_of_view(scan: Volume, labels: dentsim_cbct::LabelVolume, r
     if low == [0; 3] && high == [0; 3] {
         return (scan, labels);
     }
-    let [nx, ny, nz] = scan.dims;
+    let [nx, ny, _] = scan.dims;
     let mut counts = [0usize; Label::BoneCortical as usize + 1];
-    for n in 0..labels.labels.len() {
+    for (n, &l) in labels.labels.iter().enumerate() {
         let ijk = [n % nx, (n / nx) % ny, n / (nx * ny)];
-        let on_face = (0..3).any(|c| ijk[c] == 0 || ijk[c] + 1 == scan.dims[c]);
-        if on_face && labels.labels[n] <= Label::BoneCortical as u8 {
-            counts[labels.labels[n] as usize] += 1;
+        if l <= Label::BoneCortical as u8 && (0..3).any(|c| ijk[c] == 0 || ijk[c] + 1 == scan.dims[c]) {
+            counts[l as usize] += 1;
         }
     }
     let outside = (0..counts.len()).max_by_key(|&l| counts[l]).filter(|&l| counts[l] > 0).and_then(|l| Label::from_u8(l as u8)).unwrap_or(Label::Air);
-    let padded: [usize; 3] = std::array::from_fn(|c| scan.dims[c] + low[c] + high[c]);
-    let mut values = vec![cal.peak(outside) as f32; padded.iter().product()];
-    let mut codes = vec![outside as u8; values.len()];
-    for k in 0..nz {
-        for j in 0..ny {
-            let from = nx * (j + ny * k);
-            let to = low[0] + padded[0] * ((j + low[1]) + padded[1] * (k + low[2]));
-            values[to..to + nx].copy_from_slice(&scan.values[from..from + nx]);
-            codes[to..to + nx].copy_from_slice(&labels.labels[from..from + nx]);
-        }
-    }
-    let shift = low.map(|l| -(l as f64));
-    let origin = {
-        let mut p = scan.origin;
-        for c in 0..3 {
-            for r in 0..3 {
-                p[r] += scan.direction[c][r] * scan.spacing[c] * shift[c];
-            }
-        }
-        p
-    };
-    let scan = Volume { dims: padded, origin, values, ..scan };
-    let labels = dentsim_cbct::LabelVolume { dims: padded, origin, labels: codes, ..labels };
-    (scan, labels)
+    (pad(&scan, low, high, cal.peak(outside) as f32), pad_labels(&labels, low, high, outside))
 }
 
 /// Builds the tooth's tissues from nested unions so that each grid encloses only its own material
@@ -1451,8 +1427,6 @@ mod tests {
     use glam::DVec3;
     use std::time::Duration;
 
-    /// A tooth without a pulp, or with a speck of one, is reported with what to try; a tooth
-    /// with a pulp of a tooth's share is not.
     /// A shell between a ball (the tooth) and a smaller ball poking out of it (the core) tapers
     /// to nothing at the rim where the two spheres cross, as the enamel does at the cervical
     /// edge. Cut at t, no triangle of what is left lies where the shell is thinner than t (less

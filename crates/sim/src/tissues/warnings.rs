@@ -132,6 +132,8 @@ pub(crate) fn canal_shortfall(scan: &Volume, labels: &dentsim_cbct::LabelVolume)
 mod tests {
     use super::*;
 
+    /// A tooth without a pulp, or with a speck of one, is reported with what to try; a tooth
+    /// with a pulp of a tooth's share is not.
     #[test]
     fn a_tooth_without_a_pulp_is_never_silent() {
         let cal = Calibration::manual(&[(Label::Air, 0.0), (Label::Dentin, 2000.0), (Label::Enamel, 3000.0)]).unwrap();
