@@ -202,6 +202,27 @@ impl Calibration {
         Some(if darker == Label::Air { Label::Air } else { median })
     }
 
+    /// The grey of a root's partner across its surface where the outside about it is `bone` and
+    /// `greys` are those outside voxels (reordered). Roots sit in bone behind a periodontal
+    /// ligament (soft tissue, ~0.2 mm), mostly thinner than the scan resolves: the partner is what
+    /// lies next to the root, the ligament darkening the bone's first voxels by its share, so its
+    /// grey is the darker end of the outside's (its lowest fifth), between soft tissue's (a
+    /// ligament the scan shows) and the bone's (a root fused to it, ankylosis). Soft tissue's
+    /// for no voxels.
+    pub fn root_partner(&self, greys: &mut [f32], bone: Label) -> f64 {
+        let (bone, soft) = (self.peak(bone), self.peak(Label::SoftTissue));
+        if greys.is_empty() {
+            return soft;
+        }
+        let k = greys.len() / 5;
+        let low = f64::from(*greys.select_nth_unstable_by(k, f32::total_cmp).1);
+        if low < bone - 0.25 * (bone - soft) {
+            soft
+        } else {
+            low.clamp(soft.min(bone), bone)
+        }
+    }
+
     /// The steps (voxels, per axis) of the 5³ lattice about a surface voxel whose outside voxels
     /// [`Self::outside_of`] reads: the voxel, or [`OUTSIDE_STEP_MM`] where the voxel is finer.
     pub fn outside_steps(spacing: [f64; 3]) -> [usize; 3] {

@@ -907,23 +907,15 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             outs.extend(lattice_around(p, 2, outside_steps, d).filter(|&t| !filled[t] && !bmetal[t]).map(|t| bvals[t]));
             let mu_in = if ins.is_empty() { Label::Dentin } else { cal.nearest(median(&mut ins) as f64, &hard) };
             let mu_out = cal.outside_of(&mut outs, &outside_classes).unwrap_or(Label::SoftTissue);
-            // Roots sit in bone behind a periodontal ligament (soft tissue, ~0.2 mm), mostly
-            // thinner than the scan resolves: the root's partner is what lies next to it, the
-            // ligament darkening the bone's first voxels by its share, so the partner's grey is
-            // the darker end of the outside's (its lowest fifth), between soft tissue's (a
-            // ligament the scan shows) and the bone's (a root fused to it, ankylosis). Near the
-            // crown, or with no body of bone near, a bone-grey outside is partial volume (air in
-            // a blurred fissure, water against the root): soft.
+            // A root's partner in bone is the ligament or the bone ([`Calibration::root_partner`]).
+            // Near the crown, or with no body of bone near, a bone-grey outside is partial volume
+            // (air in a blurred fissure, water against the root): soft.
             let partner = if !matches!(mu_out, Label::BoneCancellous | Label::BoneCortical) {
                 cal.peak(mu_out)
             } else if near_enamel[l] || !bone_near[l] {
                 cal.peak(Label::SoftTissue)
             } else {
-                let k = outs.len() / 5;
-                let (_, low, _) = outs.select_nth_unstable_by(k, f32::total_cmp);
-                let (bone, soft) = (cal.peak(mu_out), cal.peak(Label::SoftTissue));
-                let low = f64::from(*low);
-                if low < bone - 0.25 * (bone - soft) { soft } else { low.clamp(soft.min(bone), bone) }
+                cal.root_partner(&mut outs, mu_out)
             };
             let inside = f64::from(bvals[l]) > 0.5 * (cal.peak(mu_in) + partner);
             (l, inside.then_some(mu_in))

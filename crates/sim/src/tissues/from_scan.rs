@@ -262,7 +262,7 @@ impl TissuesFromScan {
         let source = format!("{} {}", scan.source.format, scan.source.path);
         let mut model = TissueModel::new(source, Some(self.fdi));
         let mut tissues = Vec::new();
-        let mut builder = NestedBuilder { scan: &tooth_scan, labels: &tooth_labels, calibration: &calibration, voxel_size_mm: self.voxel_size_mm, fits: Vec::new(), edge_blur_mm: None };
+        let mut builder = NestedBuilder { scan: &tooth_scan, labels: &tooth_labels, calibration: &calibration, voxel_size_mm: self.voxel_size_mm, fits: Vec::new(), edge_blur_mm: None, roots_fused: false };
         let mut built = 0.0;
         let grids = builder.build(&mut |name| {
             built += 1.0;
@@ -408,6 +408,20 @@ const FLOW_MM2: f64 = 0.016;
 /// admits (not the tooth, nor the outside its blur brightens); a step is a voxel, or 0.2 mm on a
 /// finer grid ([`Calibration::outside_steps`]).
 fn outside_about(scan: &Volume, cal: &Calibration, centre: usize, clear: impl Fn(usize) -> bool) -> Option<Label> {
+    let mut grey = outside_greys(scan, centre, clear);
+    // A tooth alone (no bone) has only the outside the calibration found; in a jaw, soft tissue
+    // may have been matched to another class's name, and both stay. (Per voxel: no allocation.)
+    let among: &[Label] = match (cal.shows(Label::Air), cal.shows(Label::SoftTissue), cal.shows_bone()) {
+        (true, false, false) => &[Label::Air],
+        (false, true, false) => &[Label::SoftTissue],
+        _ => &[Label::Air, Label::SoftTissue],
+    };
+    cal.outside_of(&mut grey, among)
+}
+
+/// The grey of the voxels `clear` admits on the 5³ lattice about voxel `centre` whose step is
+/// [`Calibration::outside_steps`].
+fn outside_greys(scan: &Volume, centre: usize, clear: impl Fn(usize) -> bool) -> Vec<f32> {
     let [nx, ny, nz] = scan.dims;
     let (ci, cj, ck) = ((centre % nx) as i64, ((centre / nx) % ny) as i64, (centre / (nx * ny)) as i64);
     let [si, sj, sk] = Calibration::outside_steps(scan.spacing).map(|s| s as i64);
@@ -426,14 +440,7 @@ fn outside_about(scan: &Volume, cal: &Calibration, centre: usize, clear: impl Fn
             }
         }
     }
-    // A tooth alone (no bone) has only the outside the calibration found; in a jaw, soft tissue
-    // may have been matched to another class's name, and both stay. (Per voxel: no allocation.)
-    let among: &[Label] = match (cal.shows(Label::Air), cal.shows(Label::SoftTissue), cal.shows_bone()) {
-        (true, false, false) => &[Label::Air],
-        (false, true, false) => &[Label::SoftTissue],
-        _ => &[Label::Air, Label::SoftTissue],
-    };
-    cal.outside_of(&mut grey, among)
+    grey
 }
 
 /// Steps of at most 0.1 (stable) making up `time` (voxels²).
@@ -451,7 +458,46 @@ fn profile_blur(profile: &[Option<f64>], h: f64) -> Option<f64> {
     (sigma.is_finite() && sigma > 0.0).then_some(sigma)
 }
 
-/// The outer surface's edge profile ([`NestedBuilder::enamel_under_the_outside`]) is read this
+/// Each bin's median, where it holds at least [`MIN_PROFILE_SAMPLES`] (reordered).
+fn binned_medians(samples: &mut [Vec<f32>]) -> Vec<Option<f64>> {
+    samples
+        .iter_mut()
+        .map(|v| {
+            (v.len() >= MIN_PROFILE_SAMPLES).then(|| {
+                let k = v.len() / 2;
+                f64::from(*v.select_nth_unstable_by(k, f32::total_cmp).1)
+            })
+        })
+        .collect()
+}
+
+/// Whether the roots' edge profile into bone (grey medians in [`PROFILE_BIN_VOXELS`] bins from
+/// [`PROFILE_VOXELS`] inside to as far outside) shows a periodontal ligament: the grey within two
+/// voxels outside the surface dips below the bone's further out by more than
+/// [`LIGAMENT_DIP`] of the bone/soft-tissue contrast. A root fused to its bone (ankylosis, or a
+/// scan's model with no ligament) falls straight from the dentin's grey to the bone's; a 0.2 mm
+/// ligament dips 10–22 % at 0.15–0.4 mm voxels (the family's jaws), a fused root −1…+1 %
+/// (`foreign_tooth.py`'s jaws). A ligament the blur hides (half a voxel wide under a point
+/// spread of a voxel's σ dips 4.5 %) is read as fused: the scan shows bone beside the root.
+/// `None` where the profile or its bone is not read.
+fn root_ligament_seen(profile: &[Option<f64>], g_soft: f64) -> Option<bool> {
+    let per_voxel = (1.0 / PROFILE_BIN_VOXELS).round() as usize;
+    let surface = profile.len() / 2;
+    let near = profile.get(surface..surface + 2 * per_voxel)?;
+    let mut far: Vec<f64> = profile.get(surface + 2 * per_voxel..surface + 7 * per_voxel / 2)?.iter().flatten().copied().collect();
+    if near.iter().any(Option::is_none) || far.len() < 3 {
+        return None;
+    }
+    far.sort_by(f64::total_cmp);
+    let bone = far[far.len() / 2];
+    let low = near.iter().flatten().copied().fold(f64::INFINITY, f64::min);
+    (bone - g_soft > 0.0).then(|| (bone - low) / (bone - g_soft) > LIGAMENT_DIP)
+}
+
+/// See [`root_ligament_seen`]: between a fused root's and a 0.2 mm ligament's dip.
+const LIGAMENT_DIP: f64 = 0.05;
+
+/// The outer surface's edge profile ([`NestedBuilder::edge_profiles`]) is read this
 /// far (the scan's finest voxels) on each side, in bins this wide, each from at least this many
 /// voxels.
 const PROFILE_VOXELS: f64 = 4.0;
@@ -472,7 +518,7 @@ struct Trilinear {
     volume: f64,
 }
 
-/// What the outer surface's edge profile shows ([`NestedBuilder::enamel_under_the_outside`]).
+/// The enamel under the outside's grey that the crown's edge profile shows ([`NestedBuilder::edge_profiles`]).
 struct SeenUnderTheOutside {
     /// The labels with the enamel the outside's grey hid, and the dentin's share per voxel.
     labels: dentsim_cbct::LabelVolume,
@@ -481,6 +527,15 @@ struct SeenUnderTheOutside {
     edge_blur_mm: Option<f64>,
     /// Voxels within the profile's reach of bone, whose blur brightens the root's edge.
     beside_bone: Vec<bool>,
+}
+
+/// What the grey's profiles across the tooth's outer surface show
+/// ([`NestedBuilder::edge_profiles`]).
+struct EdgeProfiles {
+    /// The enamel under the outside's grey, where the crown's profile is read.
+    seen: Option<SeenUnderTheOutside>,
+    /// The roots' profile into bone shows no ligament ([`root_ligament_seen`]).
+    roots_fused: bool,
 }
 
 struct NestedBuilder<'a> {
@@ -492,6 +547,9 @@ struct NestedBuilder<'a> {
     fits: Vec<(Label, VolumeFit)>,
     /// The scan's blur the outer surface's edge profile showed, once built.
     edge_blur_mm: Option<f64>,
+    /// The roots are fused to their bone: their edge profile shows no ligament (see
+    /// [`root_ligament_seen`]), so a root's partner in bone is the bone, not soft tissue.
+    roots_fused: bool,
 }
 
 #[derive(Clone, Debug)]
@@ -521,7 +579,7 @@ impl NestedBuilder<'_> {
 
     /// The field of [`Self::union`] on the scan's grid, its voxels' sides and the labels' codes;
     /// `dentin_share`: the dentin's share of the voxels (NaN where not known) taken at the
-    /// enamel/dentin border instead of the two tissues' mix ([`Self::enamel_under_the_outside`]).
+    /// enamel/dentin border instead of the two tissues' mix ([`Self::edge_profiles`]).
     fn union_field(&self, labels: &[Label], pulp_grey: Option<f64>, dentin_share: Option<&[f32]>) -> Option<(Vec<f32>, Vec<bool>, Vec<u8>)> {
         let codes: Vec<u8> = labels.iter().filter(|l| self.present(**l)).map(|&l| l as u8).collect();
         if codes.is_empty() {
@@ -644,7 +702,8 @@ impl NestedBuilder<'_> {
     /// dentin, air, soft tissue, bone: not caries or metal, whose grey is no two-tissue mix;
     /// the pulp when `pulp_grey` is given), the field is the voxel's fraction of the inside
     /// tissue, (grey − g_out) / (g_in − g_out), with the two tissues' calibrated grey values
-    /// (bone beside a root is its ligament's soft tissue, as segmentation takes it; the pulp's
+    /// (bone beside a root is its ligament's soft tissue, as segmentation takes it, unless the
+    /// roots are fused to it, [`root_ligament_seen`]: then the bone's grey about it; the pulp's
     /// is its measured `pulp_grey`, the calibration's prediction being off by up to a third of
     /// the pulp/dentin contrast on the family). The midpoint contour the segmentation decided each
     /// voxel by then runs through the voxels at sub-voxel positions, and the scan grid's terraces
@@ -728,8 +787,20 @@ impl NestedBuilder<'_> {
                     // Inside is the dentin (the core's union).
                     return Some((n, if inside[n] { share.clamp(0.5 + SIDE, 1.0) } else { share.clamp(0.0, 0.5 - SIDE) }));
                 }
-                let own = if outside(labels[n]) { outside_grey(n)? } else { grey_of(labels[n])? };
-                let other = if outside(partner) { outside_grey(n)? } else { grey_of(partner)? };
+                // A fused root beside bone: the bone's grey there (the low end of it, as
+                // segmentation reads a root's partner).
+                let bone = |code: u8| code == Label::BoneCancellous as u8 || code == Label::BoneCortical as u8;
+                let root_beside_bone = |code: u8, hard: u8| self.roots_fused && bone(code) && hard == Label::Dentin as u8;
+                let grey_across = |code: u8, hard: u8| -> Option<f64> {
+                    if root_beside_bone(code, hard) {
+                        let clear = |m: usize| !inside[m] && !by_inside[m] && labels[m] <= Label::BoneCortical as u8;
+                        let mut greys = outside_greys(self.scan, n, clear);
+                        return Some(cal.root_partner(&mut greys, Label::from_u8(code)?));
+                    }
+                    if outside(code) { outside_grey(n) } else { grey_of(code) }
+                };
+                let own = grey_across(labels[n], partner)?;
+                let other = grey_across(partner, labels[n])?;
                 let (g_in, g_out) = if inside[n] { (own, other) } else { (other, own) };
                 if (g_in - g_out).abs() < 1e-6 {
                     return None;
@@ -756,8 +827,10 @@ impl NestedBuilder<'_> {
     /// Returns the labels with the dentin voxels whose D is under half, grown from the enamel,
     /// made enamel, and D per voxel (NaN where not read: deep voxels, where T = 1 makes D the
     /// two-tissue fraction [`Self::place_by_grey`] takes), with the blur the profile shows and
-    /// where bone is near; `None` when the scan shows too little of the profile.
-    fn enamel_under_the_outside(&self, tooth_field: &[f32]) -> Result<Option<SeenUnderTheOutside>> {
+    /// where bone is near; none when the scan shows too little of the profile. Also whether the
+    /// roots' profile into bone shows a ligament ([`root_ligament_seen`]), the crown's read or not.
+    fn edge_profiles(&self, tooth_field: &[f32]) -> Result<EdgeProfiles> {
+        let none = EdgeProfiles { seen: None, roots_fused: false };
         let dims = self.scan.dims;
         let [nx, ny, _] = dims;
         let labels = &self.labels.labels;
@@ -766,7 +839,7 @@ impl NestedBuilder<'_> {
         let (g_en, g_de) = (cal.peak(Label::Enamel), cal.peak(Label::Dentin));
         let (g_air, g_soft, g_bone) = (cal.peak(Label::Air), cal.peak(Label::SoftTissue), cal.peak(Label::BoneCancellous));
         if !(g_en - g_de > 0.0 && g_de > g_soft.max(g_air)) || !self.present(Label::Enamel) || !self.present(Label::Dentin) {
-            return Ok(None);
+            return Ok(none);
         }
         let h = self.scan.min_spacing();
         let reach = PROFILE_VOXELS.ceil() as u32;
@@ -796,7 +869,7 @@ impl NestedBuilder<'_> {
         }
         let near: Vec<usize> = (0..len).filter(|&n| steps[n] != u32::MAX).collect();
         if near.is_empty() {
-            return Ok(None);
+            return Ok(none);
         }
         // The outside at each voxel: the nearest outside voxel not touching the tooth (those that
         // do carry its blur), carried inward step by step; it is air where the outside voxels
@@ -862,6 +935,19 @@ impl NestedBuilder<'_> {
             })
             .collect();
         let beside_bone = within_box(bone_grey, dims, reach as usize);
+        // The roots' edge profile into bone, from the dentin with nothing else near.
+        let root_profile = {
+            let bins = (2.0 * PROFILE_VOXELS / PROFILE_BIN_VOXELS).round() as usize;
+            let mut samples: Vec<Vec<f32>> = vec![Vec::new(); bins];
+            for (i, &n) in near.iter().enumerate() {
+                let b = ((f64::from(distance[i]) / h + PROFILE_VOXELS) / PROFILE_BIN_VOXELS).floor();
+                if b >= 0.0 && (b as usize) < bins && beside_bone[n] && by_dentin[n] && !by_enamel[n] && !by_other[n] {
+                    samples[b as usize].push(self.scan.values[n]);
+                }
+            }
+            binned_medians(&mut samples)
+        };
+        let roots_fused = root_ligament_seen(&root_profile, g_soft) == Some(false);
         let by_other: Vec<bool> = by_other.iter().zip(&beside_bone).map(|(a, b)| *a || *b).collect();
         let outside_grey = |n: usize| -> Option<(f64, bool)> {
             let s = source[n];
@@ -888,15 +974,7 @@ impl NestedBuilder<'_> {
             let g_in = if by_enamel[n] { g_en } else { g_de };
             samples[b].push(((f64::from(self.scan.values[n]) - g_out) / (g_in - g_out)) as f32);
         }
-        let mut profile: Vec<Option<f64>> = samples
-            .iter_mut()
-            .map(|v| {
-                (v.len() >= MIN_PROFILE_SAMPLES).then(|| {
-                    let k = v.len() / 2;
-                    f64::from(*v.select_nth_unstable_by(k, f32::total_cmp).1)
-                })
-            })
-            .collect();
+        let mut profile = binned_medians(&mut samples);
         // On the tooth's side the bins must be read until the share is whole (deeper bins
         // without voxels clear of the other tissue are whole); the share only falls outward
         // (bins run from inside to outside; a few deep voxels by the DEJ or the pulp read low,
@@ -907,7 +985,7 @@ impl NestedBuilder<'_> {
             }
         }
         if profile[..bins / 2].iter().any(Option::is_none) {
-            return Ok(None);
+            return Ok(EdgeProfiles { seen: None, roots_fused });
         }
         let mut last = 0.0f64;
         for p in profile.iter_mut().rev().flatten() {
@@ -957,7 +1035,7 @@ impl NestedBuilder<'_> {
                 }
             }
         }
-        Ok(Some(SeenUnderTheOutside { labels: seen, dentin_share: dentin, edge_blur_mm, beside_bone }))
+        Ok(EdgeProfiles { seen: Some(SeenUnderTheOutside { labels: seen, dentin_share: dentin, edge_blur_mm, beside_bone }), roots_fused })
     }
 
     /// Moves `grid`'s surface along its normals until it encloses the tissue's partial-volume
@@ -1058,24 +1136,26 @@ impl NestedBuilder<'_> {
             },
             || {
                 let Some((field, inside, codes)) = this.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) else {
-                    return (this.union(&[Dentin, Pulp, Caries], None).map(|core| (core, None)), Ok(None));
+                    return (this.union(&[Dentin, Pulp, Caries], None).map(|core| (core, None, false)), Ok(None));
                 };
                 // The core from labels that see the enamel under the outside's grey (the
                 // tooth's field tells how far the outside's grey reaches each voxel).
                 rayon::join(
-                    || -> Result<(Option<LevelSet>, Option<SeenUnderTheOutside>)> {
-                        let Some(seen) = this.enamel_under_the_outside(&field)? else {
-                            return Ok((this.union(&[Dentin, Pulp, Caries], None)?, None));
+                    || -> Result<(Option<LevelSet>, Option<SeenUnderTheOutside>, bool)> {
+                        let EdgeProfiles { seen, roots_fused } = this.edge_profiles(&field)?;
+                        let this = &NestedBuilder { fits: Vec::new(), roots_fused, ..*this };
+                        let Some(seen) = seen else {
+                            return Ok((this.union(&[Dentin, Pulp, Caries], None)?, None, roots_fused));
                         };
                         let with_seen = NestedBuilder { labels: &seen.labels, fits: Vec::new(), ..*this };
                         let Some((field, inside, codes)) = with_seen.union_field(&[Dentin, Pulp, Caries], None, Some(&seen.dentin_share)) else {
-                            return Ok((None, Some(seen)));
+                            return Ok((None, Some(seen), roots_fused));
                         };
                         let (mut core, trilinear) = with_seen.union_grid_unsettled(&field, &inside, &codes)?;
                         if let Some(trilinear) = trilinear {
                             this.settle(&mut core, &trilinear, Some(&seen))?;
                         }
-                        Ok((Some(core), Some(seen)))
+                        Ok((Some(core), Some(seen), roots_fused))
                     },
                     || this.union_grid_unsettled(&field, &inside, &codes).map(Some),
                 )
@@ -1086,10 +1166,20 @@ impl NestedBuilder<'_> {
             self.fits.push((Pulp, fit));
         }
         step("dentin")?;
-        let (core, seen) = core?;
+        let (core, seen, roots_fused) = core?;
         step("enamel")?;
         self.edge_blur_mm = seen.as_ref().and_then(|seen| seen.edge_blur_mm);
-        let tooth = match tooth? {
+        // The tooth's field was placed by grey before its edge profile was read: roots fused to
+        // their bone take the bone as their partner, so their outer surface is placed again.
+        let mut tooth = tooth?;
+        if roots_fused {
+            self.roots_fused = true;
+            tooth = match self.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) {
+                Some((field, inside, codes)) => Some(self.union_grid_unsettled(&field, &inside, &codes)?),
+                None => None,
+            };
+        }
+        let tooth = match tooth {
             Some((mut tooth, Some(trilinear))) => {
                 self.settle(&mut tooth, &trilinear, seen.as_ref())?;
                 Some(tooth)
@@ -1511,7 +1601,7 @@ mod tests {
     #[test]
     fn the_pulp_placed_by_grey_has_its_normals_and_keeps_its_canal() {
         let (scan, labels, calibration, truth) = pulp_scan();
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None };
+        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots_fused: false };
         let measure = enclosed_volume(&scan, &labels, Label::Pulp, Label::Dentin, &calibration).unwrap();
         let by_labels = builder.union(&[Label::Pulp], None).unwrap().unwrap();
         let mut by_grey = builder.pulp(Some(measure.tissue_grey)).unwrap().unwrap();
@@ -1600,6 +1690,45 @@ mod tests {
     /// A crown blurred by two voxels (a fine scan's): the segmentation's threshold puts its
     /// labels about a voxel outside the enamel's surface; peeled, the border between the tooth's
     /// voxels and the outside's lies on it.
+    /// A root's edge profile into bone as the scan's point spread (σ in voxels) makes it, in the
+    /// bins [`root_ligament_seen`] reads: dentin, then `ligament` voxels of soft tissue, then bone.
+    fn root_profile(ligament: f64, sigma: f64) -> Vec<Option<f64>> {
+        let (dentin, soft, bone) = (1800.0, 40.0, 1100.0);
+        let bins = (2.0 * PROFILE_VOXELS / PROFILE_BIN_VOXELS).round() as usize;
+        (0..bins)
+            .map(|b| {
+                let s = (b as f64 + 0.5) * PROFILE_BIN_VOXELS - PROFILE_VOXELS;
+                let (mut sum, mut weight) = (0.0, 0.0);
+                for i in -800..=800 {
+                    let u = s + f64::from(i) * 0.01;
+                    let w = (-0.5 * ((u - s) / sigma).powi(2)).exp();
+                    sum += w * if u < 0.0 { dentin } else if u < ligament { soft } else { bone };
+                    weight += w;
+                }
+                Some(sum / weight)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_ligament_is_told_from_a_root_fused_to_its_bone_by_the_dip_in_its_edge_profile() {
+        // A 0.2 mm ligament at 0.2–0.4 mm voxels (0.5–1 voxel), blurred by 0.5–1 voxel (the
+        // family's jaws: a point spread of 0.15 mm and the voxel's box). Dips 11–36 %.
+        for (ligament, sigma) in [(1.0, 0.75), (1.0, 1.0), (0.5, 0.5), (0.5, 0.75), (0.75, 1.0)] {
+            assert_eq!(root_ligament_seen(&root_profile(ligament, sigma), 40.0), Some(true), "ligament {ligament}, σ {sigma}");
+        }
+        for sigma in [0.5, 1.0, 1.5] {
+            assert_eq!(root_ligament_seen(&root_profile(0.0, sigma), 40.0), Some(false), "fused, σ {sigma}");
+        }
+        // Not read where a bin near the surface holds too few voxels, or the far side is no
+        // brighter than soft tissue.
+        let mut holed = root_profile(0.0, 1.0);
+        let near_surface = holed.len() / 2 + 1;
+        holed[near_surface] = None;
+        assert_eq!(root_ligament_seen(&holed, 40.0), None);
+        assert_eq!(root_ligament_seen(&root_profile(0.0, 1.0), 1500.0), None);
+    }
+
     #[test]
     fn a_blurred_crowns_rim_is_peeled_to_its_surface() {
         let (blur, h) = (2.0, 0.1);
@@ -1641,9 +1770,9 @@ mod tests {
         // As the pipeline: peeled, then the dentin's specks (the blurred enamel's rim) given to the enamel.
         peel_blurred_rim(&scan, &mut labels, &calibration);
         keep_largest_component(&mut labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None };
+        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots_fused: false };
         let (tooth_field, ..) = builder.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap();
-        let seen = builder.enamel_under_the_outside(&tooth_field).unwrap().expect("the edge profile is read");
+        let seen = builder.edge_profiles(&tooth_field).unwrap().seen.expect("the edge profile is read");
         let made = (blur * blur + 1.0 / 12.0).sqrt() * h;
         let read = seen.edge_blur_mm.expect("a blur is read");
         println!("blur made {made:.3} mm (with the voxel's box), read {read:.3} mm; beside bone: {}", seen.beside_bone.iter().filter(|&&b| b).count());
@@ -1711,11 +1840,11 @@ mod tests {
     #[test]
     fn the_core_sees_the_enamel_the_outside_hides() {
         let (scan, labels, calibration) = cap_scan();
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None };
+        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots_fused: false };
         // The true cap's thickness over a point (the tooth's depth plus the core's distance).
         let thickness = |p: DVec3| (TOOTH.1 - p.distance(TOOTH.0)) + (p.distance(CORE.0) - CORE.1);
         let (tooth_field, ..) = builder.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap();
-        let SeenUnderTheOutside { labels: seen, dentin_share: share, .. } = builder.enamel_under_the_outside(&tooth_field).unwrap().expect("the edge profile is read");
+        let SeenUnderTheOutside { labels: seen, dentin_share: share, .. } = builder.edge_profiles(&tooth_field).unwrap().seen.expect("the edge profile is read");
         // Voxels whose centre lies in the true cap where it is thinner than two voxels.
         let centre = |n: usize| DVec3::new((n % 32) as f64, ((n / 32) % 32) as f64, (n / 1024) as f64) * 0.3;
         let in_thin_cap = |p: DVec3| p.distance(TOOTH.0) < TOOTH.1 && p.distance(CORE.0) > CORE.1 && thickness(p) < 0.6;
