@@ -77,6 +77,16 @@ pub const MIN_CONFIDENCE: f64 = 0.5;
 /// The tissues around a tooth that make peaks below the dentin's.
 const OUTSIDE: [Label; 4] = [Label::Air, Label::SoftTissue, Label::BoneCancellous, Label::BoneCortical];
 
+/// The three brightest histogram peaks with at least this much of the scan within 3 bins of them
+/// are always kept (the tooth's tissues are the scan's brightest). A restoration's blurred rim
+/// makes bumps of 1–2 mm³ between the enamel's grey and the metal's, which took those places (a
+/// filled molar in a jaw at 0.2 mm: four of them, and the enamel's peak, 125 mm³, crowded out of
+/// the nine kept: refused); any tissue the calibration reads is a body of tens of mm³ or more.
+pub const MIN_PEAK_MM3: f64 = 5.0;
+
+/// The largest (enamel − dentin) / (dentin − medium) a reading is tried with (see `calibrate`).
+const MAX_CONTRAST_RATIO: f64 = 2.0;
+
 /// A peak below the dentin whose grey fills less than this of whole neighbourhoods is no tissue.
 const MIN_BODY_MM3: f64 = 5.0;
 
@@ -357,11 +367,13 @@ struct Peak {
 }
 
 /// Prominent peaks of the log-histogram (so small tissues, enamel, still show beside air and
-/// bone), at most 9, in grey order.
-fn peaks(h: &[f64], lo: f64, bw: f64) -> Vec<Peak> {
+/// bone), at most 9, in grey order; the three brightest with at least `body` voxels about them
+/// are always among them (see [`MIN_PEAK_MM3`]).
+fn peaks(h: &[f64], lo: f64, bw: f64, body: f64) -> Vec<Peak> {
     let bins = h.len();
     let logh: Vec<f64> = h.iter().map(|&c| (1.0 + c).ln()).collect();
     let s = smooth(&logh, 3.0);
+    let count = |i: usize| h[i.saturating_sub(3)..(i + 4).min(bins)].iter().sum::<f64>();
     let mut found: Vec<(usize, f64)> = Vec::new();
     for i in 1..bins - 1 {
         if s[i] > s[i - 1] && s[i] >= s[i + 1] && h[i] > 0.0 {
@@ -378,12 +390,13 @@ fn peaks(h: &[f64], lo: f64, bw: f64) -> Vec<Peak> {
     // the scan's brightest, and a jaw's blurred edges (air–soft tissue–bone mixes) can make more
     // bumps below the dentin than leave room for the enamel (an incisor in a jaw at 0.25 mm:
     // nine prominent peaks up to the dentin, the enamel's tenth; refused at confidence 0).
-    found.sort_by_key(|p| std::cmp::Reverse(p.0));
-    let brightest = found.len().min(3);
+    // (Of bodies: a restoration's blurred rim spreads a few mm³ thinly over the grey values from
+    // the enamel's to the metal's, and the log of those sparse bins makes prominent bumps.)
+    found.sort_by_key(|p| (count(p.0) < body, std::cmp::Reverse(p.0)));
+    let brightest = found.iter().filter(|p| count(p.0) >= body).count().min(3);
     found[brightest..].sort_by(|a, b| b.1.total_cmp(&a.1));
     found.truncate(9);
     found.sort_by_key(|p| p.0);
-    let count = |i: usize| h[i.saturating_sub(3)..(i + 4).min(bins)].iter().sum::<f64>();
     found.iter().map(|&(i, _)| Peak { grey: lo + (i as f64 + 0.5) * bw, count: count(i) }).collect()
 }
 
@@ -396,7 +409,7 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
     let bins = 512;
     let (h, lo, hi, padding) = histogram(vol, bins);
     let bw = (hi - lo) / h.len() as f64;
-    let found = peaks(&h, lo, bw);
+    let found = peaks(&h, lo, bw, MIN_PEAK_MM3 / vol.voxel_volume_mm3());
     let by_order = match_in_order(&h, lo, bw, &found);
 
     // Proposals: (medium, dentin, enamel) grey values.
@@ -418,10 +431,11 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
         }
     }
     // Scale and offset cancel in this ratio; from air to soft tissue around the tooth it is 0.3–0.55
-    // in HU, and CBCT's lower enamel–dentin contrast lowers it.
+    // in HU, and CBCT's lower enamel–dentin contrast lowers it; with the jaw's bone the medium
+    // (its largest peak below the dentin) about 1.6 (2900 − 1800 over 1800 − 1100 HU).
     proposals.retain(|&[m, d, e]| {
         let r = (e - d) / (d - m);
-        m < d && d < e && (0.12..=1.2).contains(&r)
+        m < d && d < e && (0.12..=MAX_CONTRAST_RATIO).contains(&r)
     });
     // The same proposal twice (the order's reading is often one of the pairs) is tested once:
     // it would score alike and sort next to itself.
@@ -1076,7 +1090,7 @@ mod tests {
                 *count += height * (-((b as f64 - centre as f64) / 6.0).powi(2) / 2.0).exp();
             }
         }
-        let found = peaks(&h, 0.0, 1.0);
+        let found = peaks(&h, 0.0, 1.0, 0.0);
         assert_eq!(found.len(), 9, "{found:?}");
         assert!((found[8].grey - 560.5).abs() <= 2.0, "the brightest bump dropped: {found:?}");
         assert!((found[7].grey - 470.5).abs() <= 2.0 && (found[6].grey - 415.5).abs() <= 2.0, "{found:?}");

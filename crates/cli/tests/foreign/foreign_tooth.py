@@ -19,8 +19,9 @@ incisor in air at 0.4 mm, its pulp 300 HU, NIfTI float: its canal two voxels wid
 incisor_jaw_wide (the incisor in bone, soft tissue and air over a wider field of view at 0.25 mm,
 its pulp 40 HU, NIfTI int16: the jaw's blurred edges make more histogram bumps than the enamel), or
 incisor_jaw_fine (the same at 0.1 mm: the point spread two voxels wide, its crown above the gum in
-air), or custom (the sweep's: SHAPE molar|incisor, MEDIUM air|water|jaw, VOXEL mm, PULP HU and SEED
-from the environment, HU as stored, NIfTI int16; see sweep.py). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+air), or custom (the sweep's: SHAPE molar|incisor, MEDIUM air|water|jaw, VOXEL mm, PULP HU, SEED
+and FILLING (an occlusal metal filling's HU, none if empty) from the environment, HU as stored,
+NIfTI int16; see sweep.py), or filled_jaw (custom's molar in a jaw at 0.3 mm, a 12000 HU filling). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -31,10 +32,13 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-CUSTOM = CASE == "custom"
-if CUSTOM:
+CUSTOM = CASE in ("custom", "filled_jaw")
+if CASE == "filled_jaw":  # the sweep's molar in a jaw at 0.3 mm with an amalgam filling
+    SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "jaw", 0.3, 40.0, 22, "12000"
+elif CUSTOM:
     SHAPE, MEDIUM = os.environ.get("SHAPE", "molar"), os.environ.get("MEDIUM", "air")
     VOXEL, PULP_HU, SEED = float(os.environ.get("VOXEL", "0.3")), float(os.environ.get("PULP", "40")), int(os.environ.get("SEED", "1"))
+    FILLING = os.environ.get("FILLING", "")  # "" none, or the filling's grey (HU; e.g. 12000 amalgam)
 INCISOR = CASE in ("incisor", "incisor_jaw", "incisor_coarse", "incisor_jaw_wide", "incisor_jaw_fine") or (CUSTOM and SHAPE == "incisor")
 rng = np.random.default_rng(SEED if CUSTOM else {"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15, "water12": 16, "scaled": 17, "fine": 18, "incisor_jaw": 19, "incisor_coarse": 20, "incisor_jaw_wide": 191, "incisor_jaw_fine": 21}[CASE])
 JAW = CASE in ("jaw", "socket", "incisor_jaw", "incisor_jaw_wide", "incisor_jaw_fine") or (CUSTOM and MEDIUM == "jaw")
@@ -80,7 +84,17 @@ tooth = crown | root
 enamel = crown & ~core & (z >= 0.0)
 pulp = chamber | ((x ** 2 + y ** 2 <= canal_radius ** 2) & (z >= -12.0) & (z <= canal_top))
 pulp &= tooth & ~enamel
+filling = None
+if CUSTOM and FILLING:
+    # An occlusal filling (class I): a box 3 x 2.4 mm across, 2.5 mm deep from the crown's top,
+    # through the enamel into the dentin; the tissues it replaced are no longer tooth.
+    top = 10.0 if INCISOR else 7.5
+    filling = (np.abs(x) <= 1.5) & (np.abs(y) <= 1.2) & (z >= top - 2.5) & crown
+    enamel &= ~filling
+    pulp &= ~filling
 dentin = tooth & ~enamel & ~pulp
+if filling is not None:
+    dentin &= ~filling
 
 # Grey values in the scanner's units (not HU): each case its own scale and offset.
 grey = dict(air=-1000, soft=40, bone=1100, water=0, dentin=1800, enamel=2900, pulp=PULP_HU, scale=1.0, offset=0) if CUSTOM else {
@@ -111,10 +125,12 @@ elif CASE in ("incisor", "scaled", "fine", "incisor_coarse") or (CUSTOM and MEDI
 else:
     medium = np.full((1, 1, 1), grey["water"]) + 0 * x * y * z
 values = np.where(enamel, grey["enamel"], np.where(dentin, grey["dentin"], np.where(pulp, grey["pulp"], medium)))
+if filling is not None:
+    values = np.where(filling, float(FILLING), values)
 values = values.astype(np.float32)
 voxel_mm3 = np.prod(spacing) / FINE ** 3
 truth = {name: float(mask.sum() * voxel_mm3) for name, mask in (("enamel", enamel), ("dentin", dentin), ("pulp", pulp))}
-del crown, core, root, tooth, enamel, pulp, dentin, medium
+del crown, core, root, tooth, enamel, pulp, dentin, medium, filling
 
 # Partial volume (average of the sub-samples), then the scanner's blur and noise.
 scan = values.reshape(dims[0], FINE, dims[1], FINE, dims[2], FINE).mean(axis=(1, 3, 5))
@@ -125,6 +141,8 @@ transfer = np.exp(-2.0 * math.pi ** 2 * sigma_mm ** 2 * sum(f ** 2 for f in freq
 scan = np.real(np.fft.ifftn(np.fft.fftn(scan) * transfer)).astype(np.float32)
 scan += rng.normal(0.0, 35.0, scan.shape).astype(np.float32)
 scan = scan * grey["scale"] + grey["offset"]
+if CUSTOM:
+    scan = np.clip(scan, -32768, 32767)  # stored as int16
 
 # Placement in the patient (LPS mm): tilted for the jaw, about an arbitrary origin.
 tilt = math.radians(15.0 if CASE in ("jaw", "socket") else 0.0)
