@@ -79,9 +79,10 @@ const OUTSIDE: [Label; 4] = [Label::Air, Label::SoftTissue, Label::BoneCancellou
 
 /// The three brightest histogram peaks with at least this much of the scan within 3 bins of them
 /// are always kept (the tooth's tissues are the scan's brightest). A restoration's blurred rim
-/// makes bumps of 1–2 mm³ between the enamel's grey and the metal's, which took those places (a
-/// filled molar in a jaw at 0.2 mm: four of them, and the enamel's peak, 125 mm³, crowded out of
-/// the nine kept: refused); any tissue the calibration reads is a body of tens of mm³ or more.
+/// makes bumps of about 1–2 mm³ between the enamel's grey and the metal's, which took those
+/// places (a filled molar in a jaw at 0.2 mm: four of them, and the enamel's peak, over a hundred
+/// mm³, crowded out of the nine kept: refused); any tissue the calibration reads is a body of tens
+/// of mm³ or more.
 pub const MIN_PEAK_MM3: f64 = 5.0;
 
 /// The largest (enamel − dentin) / (dentin − medium) a reading is tried with (see `calibrate`).
