@@ -935,14 +935,19 @@ impl NestedBuilder<'_> {
             })
             .collect();
         let beside_bone = within_box(bone_grey, dims, reach as usize);
+        // The profiles' bins: a voxel's distance from the tooth's surface, in PROFILE_BIN_VOXELS.
+        let bins = (2.0 * PROFILE_VOXELS / PROFILE_BIN_VOXELS).round() as usize;
+        let bin_of = |d: f32| -> Option<usize> {
+            let b = ((f64::from(d) / h + PROFILE_VOXELS) / PROFILE_BIN_VOXELS).floor();
+            (b >= 0.0 && (b as usize) < bins).then_some(b as usize)
+        };
         // The roots' edge profile into bone, from the dentin with nothing else near.
         let root_profile = {
-            let bins = (2.0 * PROFILE_VOXELS / PROFILE_BIN_VOXELS).round() as usize;
             let mut samples: Vec<Vec<f32>> = vec![Vec::new(); bins];
             for (i, &n) in near.iter().enumerate() {
-                let b = ((f64::from(distance[i]) / h + PROFILE_VOXELS) / PROFILE_BIN_VOXELS).floor();
-                if b >= 0.0 && (b as usize) < bins && beside_bone[n] && by_dentin[n] && !by_enamel[n] && !by_other[n] {
-                    samples[b as usize].push(self.scan.values[n]);
+                let Some(b) = bin_of(distance[i]) else { continue };
+                if beside_bone[n] && by_dentin[n] && !by_enamel[n] && !by_other[n] {
+                    samples[b].push(self.scan.values[n]);
                 }
             }
             binned_medians(&mut samples)
@@ -960,11 +965,6 @@ impl NestedBuilder<'_> {
             Some((if air[s as usize] { g_air } else { g_soft }, bone))
         };
         // The edge profile: the tooth's share against the distance, where one hard tissue is near.
-        let bins = (2.0 * PROFILE_VOXELS / PROFILE_BIN_VOXELS).round() as usize;
-        let bin_of = |d: f32| -> Option<usize> {
-            let b = ((f64::from(d) / h + PROFILE_VOXELS) / PROFILE_BIN_VOXELS).floor();
-            (b >= 0.0 && (b as usize) < bins).then_some(b as usize)
-        };
         let mut samples: Vec<Vec<f32>> = vec![Vec::new(); bins];
         for (i, &n) in near.iter().enumerate() {
             let (Some(b), Some((g_out, false))) = (bin_of(distance[i]), outside_grey(n)) else { continue };
