@@ -281,13 +281,17 @@ fn fit(pts: &[(f64, f64)]) -> Option<(f64, f64)> {
     (a > 0.0 && a.is_finite()).then_some((a, my - a * mx))
 }
 
-/// Histogram of the volume in at most `bins` bins over its range without a padding value: a scanner
+/// Histogram of the volume's grey values up to `ceiling` in at most `bins` bins over their range
+/// without a padding value: a scanner
 /// fills the corners outside its round field of view with one value (often the type's minimum,
 /// far below air), which would squeeze every tissue into a few bins. Returns the histogram, its
 /// range and the padding value left out (if any).
-fn histogram(vol: &Volume, bins: usize) -> (Vec<f64>, f64, f64, Option<f64>) {
+fn histogram(vol: &Volume, bins: usize, ceiling: f64) -> (Vec<f64>, f64, f64, Option<f64>) {
     let (lo, hi) = vol.min_max();
-    let (mut lo, hi) = (lo as f64, hi as f64);
+    let (mut lo, mut hi) = (lo as f64, hi as f64);
+    if hi > ceiling {
+        hi = vol.values.par_iter().map(|&v| v as f64).filter(|&v| v <= ceiling).reduce(|| f64::NEG_INFINITY, f64::max).max(lo);
+    }
     let mut padding = None;
     let at_min = vol.values.par_iter().filter(|&&v| v as f64 == lo).count();
     if at_min * 200 >= vol.values.len() {
@@ -323,7 +327,7 @@ fn histogram(vol: &Volume, bins: usize) -> (Vec<f64>, f64, f64, Option<f64>) {
             |mut h, part| {
                 for &v in part {
                     let v = v as f64;
-                    if v < lo {
+                    if v < lo || v > ceiling {
                         continue;
                     }
                     h[(((v - lo) * k) as usize).min(bins - 1)] += 1;
@@ -404,11 +408,20 @@ fn peaks(h: &[f64], lo: f64, bw: f64, body: f64) -> Vec<Peak> {
 /// Automatic calibration of one scan (see the module comment); errors when the scan's anatomy
 /// does not make the reading sure enough.
 pub fn calibrate(vol: &Volume) -> Result<Calibration> {
+    calibrate_below(vol, f64::INFINITY)
+}
+
+/// As [`calibrate`], the histogram counting grey values up to `ceiling` only. A scan whose
+/// restorations' bloom was taken off ([`crate::bloom`]) still holds the metal, whose blurred
+/// edge inside its half-way surface spreads over the grey values up to the metal's: its bumps
+/// took five of the nine peaks kept and crowded out the outside's (a filled incisor in air then
+/// read the 1050 edge mix as bone, and with bone shown its pulp was lost at bone's threshold).
+pub fn calibrate_below(vol: &Volume, ceiling: f64) -> Result<Calibration> {
     if vol.values.len() < 1000 {
         return Err(Error::invalid("volume", format!("{} voxels are too few to calibrate from", vol.values.len())));
     }
     let bins = 512;
-    let (h, lo, hi, padding) = histogram(vol, bins);
+    let (h, lo, hi, padding) = histogram(vol, bins, ceiling);
     let bw = (hi - lo) / h.len() as f64;
     let found = peaks(&h, lo, bw, MIN_PEAK_MM3 / vol.voxel_volume_mm3());
     let by_order = match_in_order(&h, lo, bw, &found);
@@ -460,7 +473,7 @@ pub fn calibrate(vol: &Volume) -> Result<Calibration> {
     };
     // The winner says which structures are dentin and enamel; their grey values are measured in
     // them (a proposal's peaks may be partial-volume bumps beside the tissues' own).
-    let [m, d, e] = match grid.measure(best) {
+    let [m, d, e] = match grid.measure(best, ceiling) {
         Some((d, e)) if best[0] < d && d < e => [best[0], d, e],
         _ => best,
     };
@@ -666,11 +679,24 @@ impl Coarse {
 
     /// Grey values of dentin and enamel as a proposal reads the scan: the median of enamel voxels
     /// inside the enamel (every neighbour enamel) and of dentin voxels inside the dentin within
-    /// two voxels of the enamel (the crown's dentin, not bone of dentin's grey).
-    fn measure(&self, [m, d, e]: [f64; 3]) -> Option<(f64, f64)> {
+    /// two voxels of the enamel (the crown's dentin, not bone of dentin's grey). Above `ceiling`
+    /// (a restoration's metal, [`calibrate_below`]) is neither: the coarse cells at a filling's
+    /// edge, its metal and enamel averaged, put a filled incisor's enamel 50 grey values up (of
+    /// 1000) and its enamel volume −6 %. (No bound from the proposal itself: its enamel may be a
+    /// partial-volume bump below the enamel's own grey, which this median corrects.)
+    fn measure(&self, [m, d, e]: [f64; 3], ceiling: f64) -> Option<(f64, f64)> {
         let (t1, t2) = (0.5 * (m + d), 0.5 * (d + e));
         let [nx, ny, nz] = self.dims;
-        let class: Vec<u8> = self.values.par_iter().map(|&v| if (v as f64) <= t1 { 0 } else if (v as f64) <= t2 { 1 } else { 2 }).collect();
+        let class: Vec<u8> = self
+            .values
+            .par_iter()
+            .map(|&v| match v as f64 {
+                v if v <= t1 => 0,
+                v if v <= t2 => 1,
+                v if v <= ceiling => 2,
+                _ => 3,
+            })
+            .collect();
         let at = |i: isize, j: isize, k: isize| -> Option<u8> {
             (i >= 0 && j >= 0 && k >= 0 && (i as usize) < nx && (j as usize) < ny && (k as usize) < nz).then(|| class[i as usize + nx * (j as usize + ny * k as usize)])
         };

@@ -3,6 +3,7 @@
 //! segment one tooth's tissues and crop to a region of interest. Pure Rust; knows nothing of C++.
 
 pub mod calibrate;
+pub mod bloom;
 pub mod canal;
 pub mod dicom;
 mod dicom_lengths;
@@ -25,7 +26,7 @@ pub use metaimage::{read_metaimage, write_metaimage, write_metaimage_compressed}
 pub use nifti::{read_nifti, write_nifti};
 pub use partial_volume::{enclosed_volume, PartialVolume};
 pub use phantom::{Phantom, PhantomSpec};
-pub use calibrate::{calibrate, Calibration};
+pub use calibrate::{calibrate, calibrate_below, Calibration};
 pub use canal::trace_thin_canals;
 pub use roi::{crop, crop_between_planes, crop_labels, pad, pad_labels, tooth_box, IndexBox, Plane};
 pub use segment::{dice, find_teeth, segment, tissue_field, FoundTooth, SegmentOptions, ToothSelect};

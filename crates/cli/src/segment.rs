@@ -112,6 +112,16 @@ fn print_calibration(report: &dentsim_sim::tissues::from_scan::ScanReport) {
     for line in &report.calibration.evidence {
         println!("  {line}");
     }
+    if let Some(b) = &report.metal_bloom {
+        let greys: Vec<String> = b.metal_greys.iter().map(|g| format!("{g:.0}")).collect();
+        println!(
+            "metal restorations (grey {}): their blur (σ {:.2} mm) taken off {} voxels within {:.2} mm before calibrating again",
+            greys.join(", "),
+            b.blur_mm,
+            b.voxels,
+            b.reach_mm
+        );
+    }
 }
 
 fn parse_thresholds(items: &[String]) -> Result<Option<Vec<(Label, f64)>>> {

@@ -6,9 +6,10 @@
 //! (see [`NestedBuilder::match_partial_volume`]).
 use std::time::Instant;
 
+use dentsim_cbct::bloom::{unbloom, MetalBloom};
 use dentsim_cbct::phantom::gaussian_blur;
 use dentsim_cbct::volume::face_neighbours;
-use dentsim_cbct::{calibrate, crop, crop_labels, enclosed_volume, find_teeth, pad, pad_labels, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
+use dentsim_cbct::{calibrate, calibrate_below, crop, crop_labels, enclosed_volume, find_teeth, pad, pad_labels, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
 
 use dentsim_vdb::{LevelSet, TriMesh};
 use serde::Serialize;
@@ -82,6 +83,10 @@ pub struct ScanReport {
     /// bone). Absent where the scan shows too little of the profile (then nothing is moved).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub edge_blur_mm: Option<f64>,
+    /// An unclipped metal restoration's bloom, measured and taken off the scan before
+    /// segmentation ([`dentsim_cbct::bloom`]). Absent without one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub metal_bloom: Option<MetalBloom>,
     pub calibration: Calibration,
     /// With every tooth segmented ([`TissuesFromScan::run_all`]): this tooth as found in the
     /// scan, and its place in the list (1 = largest).
@@ -166,9 +171,26 @@ impl TissuesFromScan {
 
         step(go_on, "calibrating grey values", 0.0)?;
         let clock = Instant::now();
-        let calibration = self.calibrate(scan)?;
+        let (unbloomed, calibration, bloom) = self.calibrate_unbloomed(scan)?;
         seconds.calibrate = clock.elapsed().as_secs_f64();
-        self.run_calibrated(scan, table, calibration, seconds, go_on)
+        self.run_calibrated(unbloomed.as_ref().unwrap_or(scan), table, calibration, bloom, seconds, go_on)
+    }
+
+    /// The scan's calibration; where it shows an unclipped metal restoration, the scan with the
+    /// metal's bloom taken off ([`dentsim_cbct::bloom`]) and calibrated again below the metal
+    /// ([`calibrate_below`]): the bloom's grey values between the enamel's and the metal's moved
+    /// the enamel's peak (a filled incisor's by +90 of a 1100 enamel–dentin contrast) and with it
+    /// the enamel's threshold.
+    fn calibrate_unbloomed(&self, scan: &Volume) -> Result<(Option<Volume>, Calibration, Option<MetalBloom>)> {
+        let calibration = self.calibrate(scan)?;
+        let Some((unbloomed, bloom)) = unbloom(scan, &calibration) else {
+            return Ok((None, calibration, None));
+        };
+        let calibration = match self.thresholds {
+            Some(_) => calibration,
+            None => calibrate_below(&unbloomed, calibration.mid(Label::Enamel, Label::Metal)).map_err(|e| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() })?,
+        };
+        Ok((Some(unbloomed), calibration, Some(bloom)))
     }
 
     fn calibrate(&self, scan: &Volume) -> Result<Calibration> {
@@ -194,7 +216,8 @@ impl TissuesFromScan {
         let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
         step(go_on, "calibrating grey values", 0.0)?;
         let clock = Instant::now();
-        let calibration = self.calibrate(scan)?;
+        let (unbloomed, calibration, bloom) = self.calibrate_unbloomed(scan)?;
+        let scan = unbloomed.as_ref().unwrap_or(scan);
         let calibrate_s = clock.elapsed().as_secs_f64();
         step(go_on, "finding the teeth", 0.05)?;
         let teeth = find_teeth(scan, &calibration).map_err(cbct)?;
@@ -209,7 +232,7 @@ impl TissuesFromScan {
             // surface refinement and the lesion search), not in the whole scan.
             let region = index_box_around(scan, tooth.min, tooth.max, ALL_TEETH_MARGIN_MM);
             let part = crop(scan, &region).map_err(cbct)?;
-            let (mut model, mut report) = one.run_calibrated(&part, table, calibration.clone(), seconds, go_on)?;
+            let (mut model, mut report) = one.run_calibrated(&part, table, calibration.clone(), bloom.clone(), seconds, go_on)?;
             report.scan_dims = scan.dims;
             for c in 0..3 {
                 report.crop_min[c] += region.min[c];
@@ -225,7 +248,7 @@ impl TissuesFromScan {
         side_by_side(teeth, teeth_at_once, one_tooth, &mut |i, step, f| go_on(&format!("tooth {}: {step}", i + 1), (i as f64 + f) / count))
     }
 
-    fn run_calibrated(&self, scan: &Volume, table: &TissueTable, mut calibration: Calibration, mut seconds: Timings, go_on: &mut dyn FnMut(&str, f64) -> bool) -> Result<(TissueModel, ScanReport)> {
+    fn run_calibrated(&self, scan: &Volume, table: &TissueTable, mut calibration: Calibration, metal_bloom: Option<MetalBloom>, mut seconds: Timings, go_on: &mut dyn FnMut(&str, f64) -> bool) -> Result<(TissueModel, ScanReport)> {
         let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
         step(go_on, "segmenting", 0.1)?;
         let clock = Instant::now();
@@ -301,6 +324,7 @@ impl TissuesFromScan {
             rim_voxels_peeled: rim,
             canal_voxels_traced: canal_voxels,
             edge_blur_mm: builder.edge_blur_mm,
+            metal_bloom,
             warnings: scan_warnings(&tissues, &calibration, canal_warning, tooth_scan.min_spacing()),
             calibration,
             found: None,
