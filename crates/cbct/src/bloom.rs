@@ -57,17 +57,38 @@ const MAX_REACH_MM: f64 = 1.5;
 /// How far (mm) an edge line runs past its half-way point to read the tissue beyond.
 const FAR_MM: (f64, f64) = (1.0, 1.5);
 
+/// A metal restoration the scanner clipped: its grey (the scan's maximum) and how many voxels
+/// reach it. Its own grey, and with it the half-way surface and the bloom's reach, is unknown.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SaturatedMetal {
+    pub grey: f64,
+    pub voxels: usize,
+}
+
+/// The scan's metal if the scanner clipped it (at least [`MIN_METAL_VOXELS`] metal voxels share
+/// the scan's maximum grey, as `clean_metal` decides).
+pub fn saturated_metal(vol: &Volume, cal: &Calibration) -> Option<SaturatedMetal> {
+    saturation(vol, &metal_voxels(vol, cal))
+}
+
+fn metal_voxels(vol: &Volume, cal: &Calibration) -> Vec<usize> {
+    let classifier = cal.classifier();
+    (0..vol.values.len()).into_par_iter().filter(|&m| classifier.classify(f64::from(vol.values[m])) == Label::Metal).collect()
+}
+
+fn saturation(vol: &Volume, metal: &[usize]) -> Option<SaturatedMetal> {
+    let top = metal.iter().map(|&m| vol.values[m]).fold(f32::NEG_INFINITY, f32::max);
+    let ceiling = top - 1e-5 * top.abs().max(1.0);
+    let voxels = metal.iter().filter(|&&m| vol.values[m] >= ceiling).count();
+    (voxels >= MIN_METAL_VOXELS).then(|| SaturatedMetal { grey: f64::from(top), voxels })
+}
+
 /// `vol` with an unclipped metal restoration's bloom taken off ([`MetalBloom`]); `None` where the
 /// scan shows no metal, clips it, or too little of it to measure (the scan is then used as is).
 pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> {
     let classifier = cal.classifier();
-    let metal: Vec<usize> = (0..vol.values.len()).into_par_iter().filter(|&m| classifier.classify(f64::from(vol.values[m])) == Label::Metal).collect();
-    if metal.len() < MIN_METAL_VOXELS {
-        return None;
-    }
-    let top = metal.iter().map(|&m| vol.values[m]).fold(f32::NEG_INFINITY, f32::max);
-    let ceiling = top - 1e-5 * top.abs().max(1.0);
-    if metal.iter().filter(|&&m| vol.values[m] >= ceiling).count() >= MIN_METAL_VOXELS {
+    let metal = metal_voxels(vol, cal);
+    if metal.len() < MIN_METAL_VOXELS || saturation(vol, &metal).is_some() {
         return None;
     }
     // The metal's box, with room for the reach and the lines beyond it.
@@ -385,7 +406,11 @@ mod tests {
     fn a_clipped_filling_and_a_scan_without_one_are_left_as_they_are() {
         let (clipped, cal) = filled_scan(N, &[AMALGAM], 5000.0);
         assert_eq!(unbloom(&clipped, &cal), None);
+        assert!(saturated_metal(&clipped, &cal).is_some_and(|s| s.grey == 5000.0 && s.voxels > 1000));
         let (plain, cal) = filled_scan(N, &[], f32::INFINITY);
         assert_eq!(unbloom(&plain, &cal), None);
+        assert_eq!(saturated_metal(&plain, &cal), None);
+        let (unclipped, cal) = filled_scan(N, &[AMALGAM], f32::INFINITY);
+        assert_eq!(saturated_metal(&unclipped, &cal), None);
     }
 }

@@ -889,12 +889,20 @@ fn mesh_surface(p: &TissueProps, mesh: &TriMesh, volume_before_mm3: f64, volume_
     }
 }
 
-/// A segmentation's warnings on the surfaces they concern: every one is about the pulp, so on the
-/// pulp's, or where none was found, on the dentin's (the tissue the lost pulp was read as).
+/// A segmentation's warnings on the surfaces they concern: a clipped restoration's on the
+/// enamel's (the enamel and dentin beside it); the others are about the pulp, so on the pulp's,
+/// or where none was found, on the dentin's (the tissue the lost pulp was read as).
 fn attach_warnings(surfaces: &mut [TissueSurface], warnings: &[String]) {
-    let holder = surfaces.iter().position(|s| s.name == "pulp").or_else(|| surfaces.iter().position(|s| s.name == "dentin"));
-    if let Some(i) = holder.or((!surfaces.is_empty()).then_some(0)) {
-        surfaces[i].warnings.extend(warnings.iter().cloned());
+    let at = |surfaces: &[TissueSurface], name: &str| surfaces.iter().position(|s| s.name == name);
+    for w in warnings {
+        let holder = if w.starts_with(dentsim_sim::tissues::warnings::SATURATED_METAL) {
+            at(surfaces, "enamel").or_else(|| at(surfaces, "dentin"))
+        } else {
+            at(surfaces, "pulp").or_else(|| at(surfaces, "dentin"))
+        };
+        if let Some(i) = holder.or((!surfaces.is_empty()).then_some(0)) {
+            surfaces[i].warnings.push(w.clone());
+        }
     }
 }
 
@@ -1036,6 +1044,32 @@ mod tests {
         let params = StrokeParams { voxel_size_mm: -1.0, ..default_stroke() };
         let err = phantom_stroke(&params).err().expect("refused");
         assert!(err.contains("voxel size"), "{err}");
+    }
+
+    #[test]
+    fn each_warning_goes_on_the_tissue_it_concerns() {
+        let named = |name: &str| TissueSurface {
+            name: name.into(),
+            label: 0,
+            colour: [0.0; 3],
+            opacity: 1.0,
+            stiffness_n_per_mm: 0.0,
+            damping_n_s_per_mm: 0.0,
+            removal_rate_mm3_per_n_s: 0.0,
+            volume_before_mm3: 0.0,
+            volume_after_mm3: 0.0,
+            removed_mm3: 0.0,
+            points: Vec::new(),
+            normals: Vec::new(),
+            triangles: Vec::new(),
+            warnings: Vec::new(),
+        };
+        let clipped = dentsim_sim::tissues::warnings::saturated_metal_warning(32767.0, 300, 12.0, 600.0).unwrap();
+        let mut surfaces = vec![named("enamel"), named("dentin"), named("pulp")];
+        attach_warnings(&mut surfaces, &["the pulp's canals were not found".into(), clipped.clone()]);
+        assert_eq!(surfaces[0].warnings, vec![clipped]);
+        assert!(surfaces[1].warnings.is_empty());
+        assert_eq!(surfaces[2].warnings, vec!["the pulp's canals were not found".to_string()]);
     }
 
     #[test]

@@ -22,7 +22,8 @@ incisor_jaw_fine (the same at 0.1 mm: the point spread two voxels wide, its crow
 air), or custom (the sweep's: SHAPE molar|incisor, MEDIUM air|water|jaw, VOXEL mm, PULP HU, SEED
 and FILLING (an occlusal metal filling's HU, none if empty) from the environment, HU as stored,
 NIfTI int16; see sweep.py), or filled_jaw (custom's molar in a jaw at 0.3 mm, a 12000 HU filling), or filled_incisor (custom's
-incisor in a jaw at 0.25 mm, the same filling), or filled_incisor_air (the same incisor in air). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+incisor in a jaw at 0.25 mm, the same filling), or filled_incisor_air (the same incisor in air), or clipped_filling (a molar in air at 0.2 mm
+whose 40000 HU filling the int16 storage clips at 32767, as a saturating scanner would). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -33,13 +34,15 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-CUSTOM = CASE in ("custom", "filled_jaw", "filled_incisor", "filled_incisor_air")
+CUSTOM = CASE in ("custom", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling")
 if CASE == "filled_jaw":  # the sweep's molar in a jaw at 0.3 mm with an amalgam filling
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "jaw", 0.3, 40.0, 22, "12000"
 elif CASE == "filled_incisor":  # the sweep's incisor in a jaw at 0.25 mm with one
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "incisor", "jaw", 0.25, 40.0, 23, "12000"
 elif CASE == "filled_incisor_air":  # the sweep's incisor_air_0.25_40 with one (the sweep's seed)
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "incisor", "air", 0.25, 40.0, 152, "12000"
+elif CASE == "clipped_filling":  # the sweep's molar_air_0.2_40, its filling clipped at int16's top
+    SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "air", 0.2, 40.0, 805, "40000"
 elif CUSTOM:
     SHAPE, MEDIUM = os.environ.get("SHAPE", "molar"), os.environ.get("MEDIUM", "air")
     VOXEL, PULP_HU, SEED = float(os.environ.get("VOXEL", "0.3")), float(os.environ.get("PULP", "40")), int(os.environ.get("SEED", "1"))

@@ -6,7 +6,7 @@
 //! (see [`NestedBuilder::match_partial_volume`]).
 use std::time::Instant;
 
-use dentsim_cbct::bloom::{unbloom, MetalBloom};
+use dentsim_cbct::bloom::{saturated_metal, unbloom, MetalBloom};
 use dentsim_cbct::phantom::gaussian_blur;
 use dentsim_cbct::volume::face_neighbours;
 use dentsim_cbct::{calibrate, calibrate_below, crop, crop_labels, enclosed_volume, find_teeth, pad, pad_labels, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
@@ -18,7 +18,7 @@ use crate::error::{invalid, stopped, Error, Result};
 use crate::tissues::field;
 use crate::tissues::model::TissueModel;
 use crate::tissues::table::TissueTable;
-use crate::tissues::warnings::{canal_shortfall, canal_warning, pulp_fit_warning, pulp_warning, MIN_PULP_SHARE};
+use crate::tissues::warnings::{canal_shortfall, canal_warning, pulp_fit_warning, pulp_warning, saturated_metal_warning, MIN_PULP_SHARE, SATURATED_METAL_REACH_MM};
 
 #[derive(Clone, Debug)]
 pub struct TissuesFromScan {
@@ -99,13 +99,28 @@ pub struct ScanReport {
 }
 
 /// The report's warnings (see [`crate::tissues::warnings`]): a missing or implausibly small
-/// pulp, `canal` (its canals lost), a pulp surface the fit could not bring to its measure.
-fn scan_warnings(tissues: &[SegmentedTissue], calibration: &Calibration, canal: Option<String>, scan_voxel_mm: f64) -> Vec<String> {
+/// pulp, `canal` (its canals lost), a pulp surface the fit could not bring to its measure,
+/// `metal` (a clipped restoration beside the tooth).
+fn scan_warnings(tissues: &[SegmentedTissue], calibration: &Calibration, canal: Option<String>, metal: Option<String>, scan_voxel_mm: f64) -> Vec<String> {
     let volume = |name: &str| tissues.iter().find(|t| t.name == name).map_or(0.0, |t| t.volume_mm3);
     let pulp = tissues.iter().find(|t| t.name == "pulp");
     let unresolved = pulp.and_then(|p| pulp_fit_warning(p.volume_mm3, p.partial_volume.as_ref()?, p.surface_offset_mm, calibration, scan_voxel_mm));
     let missing = pulp_warning(volume("pulp"), volume("enamel") + volume("dentin") + volume("pulp"), calibration);
-    [missing, canal, unresolved].into_iter().flatten().collect()
+    [missing, canal, unresolved, metal].into_iter().flatten().collect()
+}
+
+/// Of the tooth's enamel and dentin (mm³), how much lies within `reach_mm` of the metal's grey
+/// (the calibration's metal class: a clipped restoration's bloom is read as tooth beyond the
+/// metal's labels), and how much there is.
+fn beside_metal(scan: &Volume, labels: &dentsim_cbct::LabelVolume, calibration: &Calibration, reach_mm: f64) -> (f64, f64) {
+    let classifier = calibration.classifier();
+    let metal: Vec<bool> = scan.values.iter().map(|&v| classifier.classify(f64::from(v)) == Label::Metal).collect();
+    let distance = dentsim_cbct::partial_volume::distance_mm(labels.dims, labels.spacing, &metal);
+    let hard = |c: u8| c == Label::Enamel as u8 || c == Label::Dentin as u8;
+    let near = labels.labels.iter().zip(&distance).filter(|(&c, &d)| hard(c) && f64::from(d) <= reach_mm).count();
+    let tooth = labels.labels.iter().filter(|&&c| hard(c)).count();
+    let voxel = labels.voxel_volume_mm3();
+    (near as f64 * voxel, tooth as f64 * voxel)
 }
 
 /// Whether the tooth's labels hold no pulp, or one implausibly small ([`MIN_PULP_SHARE`] of
@@ -280,6 +295,10 @@ impl TissuesFromScan {
         let canal_voxels = trace_thin_canals(&tooth_scan, &mut tooth_labels, &calibration);
         seconds.canals = clock.elapsed().as_secs_f64();
         let canal_warning = canal_shortfall(&tooth_scan, &tooth_labels).and_then(|(short, length)| canal_warning(short, length, tooth_scan.min_spacing()));
+        let metal_warning = saturated_metal(&tooth_scan, &calibration).and_then(|clipped| {
+            let (near, tooth) = beside_metal(&tooth_scan, &tooth_labels, &calibration, SATURATED_METAL_REACH_MM);
+            saturated_metal_warning(clipped.grey, clipped.voxels, near, tooth)
+        });
 
         let clock = Instant::now();
         let source = format!("{} {}", scan.source.format, scan.source.path);
@@ -325,7 +344,7 @@ impl TissuesFromScan {
             canal_voxels_traced: canal_voxels,
             edge_blur_mm: builder.edge_blur_mm,
             metal_bloom,
-            warnings: scan_warnings(&tissues, &calibration, canal_warning, tooth_scan.min_spacing()),
+            warnings: scan_warnings(&tissues, &calibration, canal_warning, metal_warning, tooth_scan.min_spacing()),
             calibration,
             found: None,
             tissues,
