@@ -208,4 +208,29 @@ shown = [array.GetValue(i) for i in range(array.GetNumberOfValues())] if array e
 print("pulp warnings in ParaView: %s" % shown)
 check(shown == said, "the pulp's Warnings %s vs the CLI's %s" % (shown, said))
 check(all(blocks[n].GetFieldData().GetAbstractArray("Warnings") is None for n in ("enamel", "dentin")), "warnings only on the pulp")
+
+# A filling the scanner clipped (foreign_tooth.py's clipped_filling: 40000 HU stored as int16):
+# the enamel and dentin beside it are in doubt, and the warning saying so is on the enamel's block.
+made = json.loads(subprocess.run(["/usr/bin/python3" if os.path.exists("/usr/bin/python3") else "python3",
+                                  os.path.join(os.path.dirname(os.path.abspath(__file__)), "../../crates/cli/tests/foreign/foreign_tooth.py"),
+                                  os.path.join(temp, "clipped_filling"), "clipped_filling"], check=True, capture_output=True, text=True).stdout)
+out = os.path.join(temp, "clipped_filling.vdb")
+subprocess.run([args.dentsim, "segment", made["path"], "--out", out, "--voxel", str(VOXEL_MM), "--point", ",".join(str(v) for v in made["inside"])],
+               check=True, capture_output=True, text=True)
+said = json.load(open(out + ".json"))["warnings"]
+check(any(w.startswith("a metal restoration saturates the scan") for w in said), "the CLI says the filling is clipped: %s" % said)
+filled = os.path.join(temp, "clipped_filling.nii")
+nibabel.save(nibabel.load(made["path"]), filled)
+tissues = DentalTissuesFromScan(Input=simple.OpenDataFile(filled))
+tissues.UseSeedPoint = 1
+tissues.SeedPointmm = made["inside"]
+tissues.VoxelSizemm = VOXEL_MM
+tissues.UpdatePipeline()
+data = servermanager.Fetch(tissues)
+blocks = {data.GetMetaData(i).Get(data.NAME()): data.GetBlock(i) for i in range(data.GetNumberOfBlocks())}
+array = blocks["enamel"].GetFieldData().GetAbstractArray("Warnings")
+shown = [array.GetValue(i) for i in range(array.GetNumberOfValues())] if array else []
+print("enamel warnings in ParaView: %s" % shown)
+check(shown == said, "the enamel's Warnings %s vs the CLI's %s" % (shown, said))
+check(all(blocks[n].GetFieldData().GetAbstractArray("Warnings") is None for n in ("dentin", "pulp")), "the clipped filling's warning only on the enamel")
 print("PASSED test_scan_readers")
