@@ -182,55 +182,47 @@ volumes = {first.GetMetaData(i).Get(first.NAME()): first.GetBlock(i).GetFieldDat
 bounds = {first.GetMetaData(i).Get(first.NAME()): first.GetBlock(i).GetBounds() for i in range(first.GetNumberOfBlocks())}
 same("All Teeth, tooth 1", (volumes, bounds), cli(mha, "MetaImage"))
 
+
+def warnings_both_ways(case):
+    """foreign_tooth.py's `case` segmented by `dentsim segment` and, through ParaView's NIfTI
+    reader, by Dental Tissues From Scan: the CLI report's warnings, and ParaView's blocks by name
+    with each block's `Warnings` (empty where it has none)."""
+    made = json.loads(subprocess.run(["/usr/bin/python3" if os.path.exists("/usr/bin/python3") else "python3",
+                                      os.path.join(os.path.dirname(os.path.abspath(__file__)), "../../crates/cli/tests/foreign/foreign_tooth.py"),
+                                      os.path.join(temp, case), case], check=True, capture_output=True, text=True).stdout)
+    out = os.path.join(temp, case + ".vdb")
+    subprocess.run([args.dentsim, "segment", made["path"], "--out", out, "--voxel", str(VOXEL_MM), "--point", ",".join(str(v) for v in made["inside"])],
+                   check=True, capture_output=True, text=True)
+    said = json.load(open(out + ".json"))["warnings"]
+    nii = os.path.join(temp, case + ".nii")  # ParaView's NIfTI reader does not read .nii.gz
+    nibabel.save(nibabel.load(made["path"]), nii)
+    tissues = DentalTissuesFromScan(Input=simple.OpenDataFile(nii))
+    tissues.UseSeedPoint = 1
+    tissues.SeedPointmm = made["inside"]
+    tissues.VoxelSizemm = VOXEL_MM
+    tissues.UpdatePipeline()
+    data = servermanager.Fetch(tissues)
+    shown = {}
+    for i in range(data.GetNumberOfBlocks()):
+        array = data.GetBlock(i).GetFieldData().GetAbstractArray("Warnings")
+        shown[data.GetMetaData(i).Get(data.NAME())] = [array.GetValue(k) for k in range(array.GetNumberOfValues())] if array else []
+    print("%s: the CLI's warnings %s; ParaView's by block %s" % (case, said, shown))
+    return said, shown
+
+
 # A scan another tool wrote whose pulp dentsim cannot fully read (an incisor in bone at 0.4 mm: its
 # 0.8 mm canal is not found): through ParaView's NIfTI reader, the pulp's block carries the
 # report's warnings, word for word as `dentsim segment` gives them.
-made = json.loads(subprocess.run(["/usr/bin/python3" if os.path.exists("/usr/bin/python3") else "python3",
-                                  os.path.join(os.path.dirname(os.path.abspath(__file__)), "../../crates/cli/tests/foreign/foreign_tooth.py"),
-                                  os.path.join(temp, "incisor_jaw"), "incisor_jaw"], check=True, capture_output=True, text=True).stdout)
-out = os.path.join(temp, "incisor_jaw.vdb")
-subprocess.run([args.dentsim, "segment", made["path"], "--out", out, "--voxel", str(VOXEL_MM), "--point", ",".join(str(v) for v in made["inside"])],
-               check=True, capture_output=True, text=True)
-said = json.load(open(out + ".json"))["warnings"]
+said, shown = warnings_both_ways("incisor_jaw")
 check(any("short of the root's apex" in w for w in said), "the CLI says the canal is lost: %s" % said)
-incisor = os.path.join(temp, "incisor_jaw.nii")  # ParaView's NIfTI reader does not read .nii.gz
-nibabel.save(nibabel.load(made["path"]), incisor)
-tissues = DentalTissuesFromScan(Input=simple.OpenDataFile(incisor))
-tissues.UseSeedPoint = 1
-tissues.SeedPointmm = made["inside"]
-tissues.VoxelSizemm = VOXEL_MM
-tissues.UpdatePipeline()
-data = servermanager.Fetch(tissues)
-blocks = {data.GetMetaData(i).Get(data.NAME()): data.GetBlock(i) for i in range(data.GetNumberOfBlocks())}
-check(sorted(blocks) == ["dentin", "enamel", "pulp"], "incisor tissues: %s" % sorted(blocks))
-array = blocks["pulp"].GetFieldData().GetAbstractArray("Warnings")
-shown = [array.GetValue(i) for i in range(array.GetNumberOfValues())] if array else []
-print("pulp warnings in ParaView: %s" % shown)
-check(shown == said, "the pulp's Warnings %s vs the CLI's %s" % (shown, said))
-check(all(blocks[n].GetFieldData().GetAbstractArray("Warnings") is None for n in ("enamel", "dentin")), "warnings only on the pulp")
+check(sorted(shown) == ["dentin", "enamel", "pulp"], "incisor tissues: %s" % sorted(shown))
+check(shown["pulp"] == said, "the pulp's Warnings %s vs the CLI's %s" % (shown["pulp"], said))
+check(shown["enamel"] == [] and shown["dentin"] == [], "warnings only on the pulp")
 
 # A filling the scanner clipped (foreign_tooth.py's clipped_filling: 40000 HU stored as int16):
 # the enamel and dentin beside it are in doubt, and the warning saying so is on the enamel's block.
-made = json.loads(subprocess.run(["/usr/bin/python3" if os.path.exists("/usr/bin/python3") else "python3",
-                                  os.path.join(os.path.dirname(os.path.abspath(__file__)), "../../crates/cli/tests/foreign/foreign_tooth.py"),
-                                  os.path.join(temp, "clipped_filling"), "clipped_filling"], check=True, capture_output=True, text=True).stdout)
-out = os.path.join(temp, "clipped_filling.vdb")
-subprocess.run([args.dentsim, "segment", made["path"], "--out", out, "--voxel", str(VOXEL_MM), "--point", ",".join(str(v) for v in made["inside"])],
-               check=True, capture_output=True, text=True)
-said = json.load(open(out + ".json"))["warnings"]
+said, shown = warnings_both_ways("clipped_filling")
 check(any(w.startswith("a metal restoration saturates the scan") for w in said), "the CLI says the filling is clipped: %s" % said)
-filled = os.path.join(temp, "clipped_filling.nii")
-nibabel.save(nibabel.load(made["path"]), filled)
-tissues = DentalTissuesFromScan(Input=simple.OpenDataFile(filled))
-tissues.UseSeedPoint = 1
-tissues.SeedPointmm = made["inside"]
-tissues.VoxelSizemm = VOXEL_MM
-tissues.UpdatePipeline()
-data = servermanager.Fetch(tissues)
-blocks = {data.GetMetaData(i).Get(data.NAME()): data.GetBlock(i) for i in range(data.GetNumberOfBlocks())}
-array = blocks["enamel"].GetFieldData().GetAbstractArray("Warnings")
-shown = [array.GetValue(i) for i in range(array.GetNumberOfValues())] if array else []
-print("enamel warnings in ParaView: %s" % shown)
-check(shown == said, "the enamel's Warnings %s vs the CLI's %s" % (shown, said))
-check(all(blocks[n].GetFieldData().GetAbstractArray("Warnings") is None for n in ("dentin", "pulp")), "the clipped filling's warning only on the enamel")
+check(shown["enamel"] == said, "the enamel's Warnings %s vs the CLI's %s" % (shown["enamel"], said))
+check(shown["dentin"] == [] and shown["pulp"] == [], "the clipped filling's warning only on the enamel")
 print("PASSED test_scan_readers")

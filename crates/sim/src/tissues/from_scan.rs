@@ -9,7 +9,7 @@ use std::time::Instant;
 use dentsim_cbct::bloom::{saturated_metal, unbloom, MetalBloom};
 use dentsim_cbct::phantom::gaussian_blur;
 use dentsim_cbct::volume::face_neighbours;
-use dentsim_cbct::{calibrate, calibrate_below, crop, crop_labels, enclosed_volume, find_teeth, pad, pad_labels, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
+use dentsim_cbct::{calibrate_below, crop, crop_labels, enclosed_volume, find_teeth, pad, pad_labels, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
 
 use dentsim_vdb::{LevelSet, TriMesh};
 use serde::Serialize;
@@ -197,22 +197,21 @@ impl TissuesFromScan {
     /// the enamel's peak (a filled incisor's by +90 of a 1100 enamel–dentin contrast) and with it
     /// the enamel's threshold.
     fn calibrate_unbloomed(&self, scan: &Volume) -> Result<(Option<Volume>, Calibration, Option<MetalBloom>)> {
-        let calibration = self.calibrate(scan)?;
+        let calibration = self.calibrate(scan, f64::INFINITY)?;
         let Some((unbloomed, bloom)) = unbloom(scan, &calibration) else {
             return Ok((None, calibration, None));
         };
-        let calibration = match self.thresholds {
-            Some(_) => calibration,
-            None => calibrate_below(&unbloomed, calibration.mid(Label::Enamel, Label::Metal)).map_err(|e| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() })?,
-        };
+        let calibration = self.calibrate(&unbloomed, calibration.mid(Label::Enamel, Label::Metal))?;
         Ok((Some(unbloomed), calibration, Some(bloom)))
     }
 
-    fn calibrate(&self, scan: &Volume) -> Result<Calibration> {
+    /// The user's thresholds, else the scan's own calibration from its grey values up to
+    /// `ceiling` ([`calibrate_below`]).
+    fn calibrate(&self, scan: &Volume, ceiling: f64) -> Result<Calibration> {
         let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
         match &self.thresholds {
             Some(values) => Calibration::manual(values).map_err(cbct),
-            None => calibrate(scan).map_err(cbct),
+            None => calibrate_below(scan, ceiling).map_err(cbct),
         }
     }
 

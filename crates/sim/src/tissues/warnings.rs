@@ -1,7 +1,7 @@
 //! What a segmentation could not read and says so (`ScanReport::warnings`): a pulp missing or
 //! implausibly small, one whose canals end short of the root's apex, one whose surface could not
-//! follow the scan's grey, enamel and dentin beside a restoration the scanner clipped. Each result is kept and never silent: the warning says what was found
-//! and what to try.
+//! follow the scan's grey, enamel and dentin beside a restoration the scanner clipped. Each
+//! result is kept and never silent: the warning says what was found and what to try.
 use dentsim_cbct::volume::face_neighbours;
 use dentsim_cbct::{Calibration, Label, PartialVolume, Volume};
 use glam::DVec3;
@@ -77,9 +77,9 @@ pub const SATURATED_METAL: &str = "a metal restoration saturates the scan";
 
 /// A warning when a restoration the scanner clipped (`voxels` at its maximum `grey`) lies within
 /// [`SATURATED_METAL_REACH_MM`] of `near_mm3` of the tooth's enamel and dentin (of `tooth_mm3`;
-/// measured from the metal's grey, whose bloom lies beyond its labels):
-/// its own grey, its half-way surface and its bloom's reach are unknown, so that much of the
-/// tooth may be read as the wrong tissue (the foreign sweep's clipped fillings: enamel +7…+8 %,
+/// measured from the metal's grey, whose bloom lies beyond its labels): its own grey, its
+/// half-way surface and its bloom's reach are unknown, so that much of the tooth may be read as
+/// the wrong tissue (the foreign sweep's clipped fillings: enamel +7…+8 %,
 /// dentin −5…−6.5 %).
 pub fn saturated_metal_warning(grey: f64, voxels: usize, near_mm3: f64, tooth_mm3: f64) -> Option<String> {
     (near_mm3 > 0.0 && tooth_mm3 > 0.0).then(|| {
