@@ -11,9 +11,16 @@
 //! along the line from the metal through the voxel: the tissue the filling sits in, read beyond
 //! its bloom. (Un-mixing each voxel's grey by the metal's share a Gaussian edge would give it
 //! instead read the jaw molars' enamel 0.3–1.3 % further from the truth and lost two incisors'
-//! pulps: the share is off at a restoration's corners.) Where the scan is clipped the metal's
-//! grey, and with it the half-way surface, is unknown; such scans are left as they are
-//! (segmentation's `clean_metal` handles their streaks).
+//! pulps: the share is off at a restoration's corners.)
+//!
+//! Where the scanner clipped the metal, its grey and its half-way surface cannot be read in its
+//! core. They are read from the bloom's tail below the ceiling instead, with the blur measured
+//! across the crown's own edges ([`clipped_metal_grey`], [`clipped_depth`]): the metal ends
+//! inside the tail's half-way-to-the-ceiling surface by a depth that depends on the metal's grey
+//! and the tissue beside it. Within that end the scan is raised to the ceiling, as an unblurred
+//! scan would read it, which segmentation's `clean_metal` (a clipped scan's metal is what reaches
+//! the ceiling) then keeps whole. For a first calibration of a clipped scan, whose bloom's bumps
+//! may crowd its histogram, [`hide_saturated_bloom`] hides it.
 
 use crate::calibrate::Calibration;
 use crate::mask::components;
@@ -27,13 +34,17 @@ use serde::Serialize;
 /// What [`unbloom`] measured and changed.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MetalBloom {
-    /// Each restoration's metal grey in its core (the scan's units), the largest first.
+    /// Each restoration's metal grey in its core (the scan's units), the largest first; a
+    /// clipped one's as its bloom's tail gives it.
     pub metal_greys: Vec<f64>,
+    /// The scan's maximum, where the scanner clipped the metal.
+    pub clipped_at: Option<f64>,
     /// The blur across the metal's edge (σ, mm, the voxel's own share included).
     pub blur_mm: f64,
     /// How far out from the metal's half-way surface the bloom was taken off (mm).
     pub reach_mm: f64,
-    /// Voxels given the grey beyond the bloom.
+    /// Voxels given the grey beyond the bloom (not counting a clipped metal's own, raised to the
+    /// ceiling).
     pub voxels: usize,
 }
 
@@ -47,8 +58,9 @@ const MIN_CORE_VOXELS: usize = 8;
 /// The fewest edge lines that give the blur.
 const MIN_EDGE_LINES: usize = 8;
 
-/// The bloom's reach in σ: the metal's share of a voxel 2.5 σ out is 0.6 %, under 70 grey
-/// values of a 12000 HU filling's lift over dentin, a twentieth of the enamel–dentin contrast.
+/// The bloom's least reach in σ: the metal's share of a voxel 2.5 σ out is 0.6 %, under 70 grey
+/// values of a 12000 HU filling's lift over dentin, a sixteenth of the enamel–dentin contrast; a
+/// brighter metal reaches as far as that sixteenth.
 const REACH_SIGMAS: f64 = 2.5;
 
 /// The farthest reach (mm): a blur of 0.6 mm is beyond any dental CBCT's.
@@ -83,14 +95,56 @@ fn saturation(vol: &Volume, metal: &[usize]) -> Option<SaturatedMetal> {
     (voxels >= MIN_METAL_VOXELS).then(|| SaturatedMetal { grey: f64::from(top), voxels })
 }
 
-/// `vol` with an unclipped metal restoration's bloom taken off ([`MetalBloom`]); `None` where the
-/// scan shows no metal, clips it, or too little of it to measure (the scan is then used as is).
+/// How far (mm) from a clipped scan's saturated voxels [`hide_saturated_bloom`] reaches: past
+/// the bloom of a blur up to 0.35 mm (a 0.4 mm scan's) beyond the metal's end.
+const HIDDEN_MM: f64 = 1.0;
+
+/// `vol` with every voxel within [`HIDDEN_MM`] of its maximum grey set to that maximum, or
+/// `None` unless at least [`MIN_METAL_VOXELS`] voxels reach it (a clipped scan). For a first
+/// calibration only: a saturated restoration's bloom ramps from the ceiling down to the tissue
+/// beside it, and in a jaw its bumps crowd the histogram's peaks out (a clipped jaw molar's nine
+/// peaks were bloom but two).
+pub fn hide_saturated_bloom(vol: &Volume) -> Option<(Volume, f64)> {
+    let top = vol.values.par_iter().copied().reduce(|| f32::NEG_INFINITY, f32::max);
+    let ceiling = top - 1e-5 * top.abs().max(1.0);
+    let saturated: Vec<usize> = (0..vol.values.len()).into_par_iter().filter(|&m| vol.values[m] >= ceiling).collect();
+    if saturated.len() < MIN_METAL_VOXELS || !top.is_finite() {
+        return None;
+    }
+    let [nx, ny, _] = vol.dims;
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    for &m in &saturated {
+        let p = [m % nx, (m / nx) % ny, m / (nx * ny)];
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    let pad = 1 + (HIDDEN_MM / vol.min_spacing()).ceil() as usize;
+    let region = IndexBox { min: lo.map(|v| v.saturating_sub(pad)), max: [0, 1, 2].map(|c| (hi[c] + pad + 1).min(vol.dims[c])) };
+    let part = crop(vol, &region).ok()?;
+    let is_top: Vec<bool> = part.values.par_iter().map(|&v| v >= ceiling).collect();
+    let distance = distance_mm(part.dims, part.spacing, &is_top);
+    let mut out = vol.clone();
+    let d = part.dims;
+    for (l, _) in distance.iter().enumerate().filter(|(_, &v)| f64::from(v) <= HIDDEN_MM) {
+        let [i, j, k] = [l % d[0], (l / d[0]) % d[1], l / (d[0] * d[1])].map(|v| v);
+        let n = out.index(i + region.min[0], j + region.min[1], k + region.min[2]);
+        out.values[n] = top;
+    }
+    Some((out, f64::from(ceiling)))
+}
+
+/// `vol` with its metal restorations' bloom taken off ([`MetalBloom`]); `None` where the scan
+/// shows no metal, or too little of it, or too few clear edges, to measure (the scan is then
+/// used as is).
 pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> {
     let classifier = cal.classifier();
     let metal = metal_voxels(vol, cal);
-    if metal.len() < MIN_METAL_VOXELS || saturation(vol, &metal).is_some() {
+    if metal.len() < MIN_METAL_VOXELS {
         return None;
     }
+    let ceiling = saturation(vol, &metal).map(|s| s.grey);
     // The metal's box, with room for the reach and the lines beyond it.
     let [nx, ny, _] = vol.dims;
     let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
@@ -108,7 +162,8 @@ pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> 
 
     // Each restoration (a component of the metal class) its own metal's grey: the median of its
     // brightest tenth. Its edge and bloom hold most of its class (a 3 mm filling at a 0.2 mm
-    // blur: three quarters), so its median is too dark.
+    // blur: three quarters), so its median is too dark. A core at the scan's clipped maximum
+    // is read from the bloom's tail below it instead (see `ClippedEdge`).
     let enamel = cal.peak(Label::Enamel);
     let is_metal: Vec<bool> = part.values.par_iter().map(|&v| classifier.classify(f64::from(v)) == Label::Metal).collect();
     let (component, sizes) = components(d, &is_metal);
@@ -116,79 +171,67 @@ pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> 
     for (l, &c) in component.iter().enumerate().filter(|(_, &c)| c != 0 && sizes[c as usize] >= MIN_METAL_VOXELS) {
         members[c as usize].push(part.values[l]);
     }
-    let metal_grey: Vec<Option<f64>> = members
+    let cores: Vec<Option<Core>> = members
         .into_iter()
         .map(|mut greys| {
             greys.sort_by(f32::total_cmp);
             let brightest = &greys[greys.len() * 9 / 10..];
             let grey = f64::from(*brightest.get(brightest.len() / 2)?);
-            (brightest.len() >= MIN_CORE_VOXELS && classifier.classify(0.5 * (grey + enamel)) == Label::Metal).then_some(grey)
+            if brightest.len() < MIN_CORE_VOXELS {
+                return None;
+            }
+            match ceiling {
+                Some(c) if grey >= c - 1e-5 * c.abs().max(1.0) => Some(Core::Clipped(c)),
+                _ => (classifier.classify(0.5 * (grey + enamel)) == Label::Metal).then_some(Core::Measured(grey)),
+            }
         })
         .collect();
-    let mut metal_greys: Vec<(usize, f64)> = metal_grey.iter().enumerate().filter_map(|(c, g)| g.map(|g| (sizes[c], g))).collect();
-    if metal_greys.is_empty() {
-        return None;
-    }
-    metal_greys.sort_by(|a, b| b.0.cmp(&a.0));
-    // Where the metal ends: each voxel of a measured restoration the grey half-way from the
-    // enamel's to its metal's (infinite elsewhere).
-    let half_at: Vec<f64> = component.iter().map(|&c| metal_grey[c as usize].map_or(f64::INFINITY, |g| 0.5 * (g + enamel))).collect();
-    let metal_at = |l: usize| metal_grey[component[l] as usize];
-    let sample = Sampler { values: &part.values, dims: d, spacing: part.spacing };
-    // Whether a point (index space) lies in the metal: its grey past the nearest voxel's half-way.
-    let in_metal = |p: [f64; 3]| {
-        let q = [0, 1, 2].map(|c| (p[c].round().max(0.0) as usize).min(d[c] - 1));
-        sample.at(p) >= half_at[q[0] + d[0] * (q[1] + d[1] * q[2])]
+    let metal_grey: Vec<Option<f64>> = cores.iter().map(|c| if let Some(Core::Measured(g)) = c { Some(*g) } else { None }).collect();
+    // Where the metal's edge is read: a measured one's grey half-way from the enamel's to its
+    // metal's, where the metal ends; a clipped one's half-way from the enamel's to the ceiling,
+    // outside its end by the depth its tail gives (infinite elsewhere).
+    let edge_level = |core: &Option<Core>| match core {
+        Some(Core::Measured(g)) => 0.5 * (g + enamel),
+        Some(Core::Clipped(c)) => enamel + 0.5 * (c - enamel),
+        None => f64::INFINITY,
     };
+    let levels: Vec<f64> = cores.iter().map(edge_level).collect();
+    let half_at: Vec<f64> = component.iter().map(|&c| levels[c as usize]).collect();
+    let sample = Sampler { values: &part.values, dims: d, spacing: part.spacing };
+    // Whether a point (index space) lies within the edge read: its grey past the nearest voxel's level.
+    let at_voxel = |p: [f64; 3]| {
+        let q = [0, 1, 2].map(|c| (p[c].round().max(0.0) as usize).min(d[c] - 1));
+        q[0] + d[0] * (q[1] + d[1] * q[2])
+    };
+    let in_metal = |p: [f64; 3]| sample.at(p) >= half_at[at_voxel(p)];
 
-    // The blur: along the grey's gradient through each voxel just outside the half-way surface,
-    // the distance between the crossings of a quarter and three quarters of the way from the
-    // tissue beyond (read FAR_MM past the half-way point) to the metal.
+    // The lines across the metal's edge: along the grey's gradient through each voxel just
+    // outside the edge read.
     let inside: Vec<bool> = part.values.par_iter().zip(&half_at).map(|(&v, &h)| f64::from(v) >= h).collect();
     let edge: Vec<(usize, usize)> = (0..inside.len())
         .filter(|&l| !inside[l])
         .filter_map(|l| face_neighbours(l, d).into_iter().flatten().find(|&q| inside[q]).map(|q| (l, q)))
         .collect();
     let step = 0.25 * part.min_spacing();
+    let read_line = |l: usize, level: f64, top: f64, from: f64| -> Option<EdgeLine> {
+        let at = ijk(l, d);
+        let out = sample.gradient(at).map(|g| g.map(|v| -v))?;
+        EdgeLine::read(|s| sample.at(along(at, out, s, part.spacing)), step, from, level, top)
+    };
+    // The blur: on a measured metal's lines, the distance between the crossings of a quarter
+    // and three quarters of the way from the tissue beyond to the metal.
     let mut widths: Vec<f64> = edge
         .par_iter()
         .filter_map(|&(l, metal)| {
-            let (half, metal_grey) = (half_at[metal], metal_at(metal)?);
-            let at = ijk(l, d);
-            let out = sample.gradient(at).map(|g| g.map(|v| -v))?;
-            let line = |s: f64| sample.at(along(at, out, s, part.spacing));
-            let from = -MAX_REACH_MM;
-            let crossing = |level: f64, start: f64| -> Option<f64> {
-                let mut s = start;
-                let mut before = line(s);
-                while s < MAX_REACH_MM + FAR_MM.1 {
-                    let next = line(s + step);
-                    if before >= level && next < level {
-                        return Some(s + step * (before - level) / (before - next));
-                    }
-                    (s, before) = (s + step, next);
-                }
-                None
-            };
-            if line(from) < half {
-                return None;
-            }
-            let s_half = crossing(half, from)?;
-            let mut far: Vec<f64> = (0..)
-                .map(|k| s_half + FAR_MM.0 + k as f64 * step)
-                .take_while(|&s| s <= s_half + FAR_MM.1)
-                .map(line)
-                .collect();
-            far.sort_by(f64::total_cmp);
-            let tissue = *far.get(far.len() / 2)?;
-            if tissue >= half {
-                return None;
-            }
-            let s75 = crossing(tissue + 0.75 * (metal_grey - tissue), from)?;
-            let s25 = crossing(tissue + 0.25 * (metal_grey - tissue), s75)?;
-            Some((s25 - s75) / 1.349)
+            let line = read_line(l, half_at[metal], metal_grey[component[metal] as usize]?, -MAX_REACH_MM)?;
+            Some((line.s25 - line.s75) / 1.349)
         })
         .collect();
+    // With every restoration clipped, the blur is read the same way across the crown's own
+    // edges (enamel to what lies beyond it), clear of the metal's bloom.
+    if widths.len() < MIN_EDGE_LINES && cores.iter().any(|c| matches!(c, Some(Core::Clipped(_)))) {
+        widths = crown_widths(&part, cal, &is_metal, step);
+    }
     if widths.len() < MIN_EDGE_LINES {
         return None;
     }
@@ -197,40 +240,252 @@ pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> 
     if !(blur_mm.is_finite() && blur_mm > 0.0) {
         return None;
     }
-    let reach_mm = (REACH_SIGMAS * blur_mm).min(MAX_REACH_MM);
 
-    // Each voxel within the reach: the grey the reach away from the half-way surface, along the
+    // Each clipped restoration's metal grey: the median of its lines' tails.
+    let mut tails: Vec<Vec<f64>> = vec![Vec::new(); cores.len()];
+    let read: Vec<(usize, f64)> = edge
+        .par_iter()
+        .filter_map(|&(l, metal)| {
+            let c = component[metal] as usize;
+            let Some(Core::Clipped(top)) = cores[c] else { return None };
+            let line = read_line(l, half_at[metal], top, -MAX_REACH_MM)?;
+            clipped_metal_grey(&line, top, blur_mm).map(|g| (c, g))
+        })
+        .collect();
+    for (c, g) in read {
+        tails[c].push(g);
+    }
+    let mut found: Vec<(usize, f64)> = metal_grey.iter().enumerate().filter_map(|(c, g)| g.map(|g| (sizes[c], g))).collect();
+    // How far inside its edge read each restoration's metal ends, beside a tissue of a grey:
+    // none for a measured one (its edge read is its end); a clipped one with too few tails is
+    // left as it is.
+    let mut clipped_grey: Vec<Option<f64>> = vec![None; cores.len()];
+    for (c, t) in tails.iter_mut().enumerate().filter(|(_, t)| t.len() >= MIN_EDGE_LINES) {
+        let mid = t.len() / 2;
+        let grey = *t.select_nth_unstable_by(mid, f64::total_cmp).1;
+        clipped_grey[c] = Some(grey);
+        found.push((sizes[c], grey));
+    }
+    if found.is_empty() {
+        return None;
+    }
+    found.sort_by(|a, b| b.0.cmp(&a.0));
+    // The reach: at least REACH_SIGMAS, and as far as the brightest metal's share of the grey
+    // stays above a sixteenth of the enamel–dentin contrast over the dentin (a 40000 HU metal's
+    // 2.9 σ).
+    let brightest = found.iter().map(|&(_, g)| g).fold(f64::NEG_INFINITY, f64::max);
+    let (dentin, contrast) = (cal.peak(Label::Dentin), enamel - cal.peak(Label::Dentin));
+    let share = contrast / 16.0 / (brightest - dentin);
+    let sigmas = if share > 0.0 && share < 0.5 { REACH_SIGMAS.max(-probit(share)) } else { REACH_SIGMAS };
+    let reach_mm = (sigmas * blur_mm).min(MAX_REACH_MM);
+    let depth_beside = |c: usize, tissue: f64| -> Option<f64> {
+        match cores[c]? {
+            Core::Measured(_) => Some(0.0),
+            Core::Clipped(_) => Some(clipped_depth(levels[c], tissue, clipped_grey[c]?, blur_mm).min(reach_mm)),
+        }
+    };
+    // A point beside no restoration's edge read takes the largest's.
+    let largest = (1..cores.len()).filter(|&c| depth_beside(c, enamel).is_some()).max_by_key(|&c| sizes[c]).unwrap_or(0);
+
+    // Each voxel within the reach of a metal's end: the grey the reach away from it, along the
     // line from the nearest metal through it.
+    let max_spacing = part.spacing.iter().fold(0.0f64, |a, &b| a.max(b));
     let distance = distance_mm(d, part.spacing, &inside);
     let dist = Sampler { values: &distance, dims: d, spacing: part.spacing };
-    let changed: Vec<(usize, f32)> = (0..inside.len())
+    let mut changed: Vec<(usize, f32)> = (0..inside.len())
         .into_par_iter()
-        .filter(|&l| !inside[l] && f64::from(distance[l]) <= reach_mm + part.spacing.iter().fold(0.0f64, |a, &b| a.max(b)))
+        .filter(|&l| !inside[l] && f64::from(distance[l]) <= reach_mm + max_spacing)
         .filter_map(|l| {
             let at = ijk(l, d);
             let out = dist.gradient(at).or_else(|| sample.gradient(at).map(|g| g.map(|v| -v)))?;
-            // The half-way point behind the voxel, on its line (else, where the line passes
-            // beside a rounded edge, as far as the nearest metal voxel).
+            // The edge read behind the voxel, on its line (else, where the line passes beside a
+            // rounded edge, as far as the nearest metal voxel), and the metal's end behind that.
             let behind = f64::from(distance[l]);
-            let s = (0..)
+            let (s, c) = (0..)
                 .map(|k| f64::from(k) * step)
                 .take_while(|&s| s <= behind + 2.0 * part.min_spacing())
-                .find(|&s| in_metal(along(at, out, -s, part.spacing)))
-                .unwrap_or(behind);
+                .find_map(|s| {
+                    let p = along(at, out, -s, part.spacing);
+                    in_metal(p).then(|| (s, component[at_voxel(p)] as usize))
+                })
+                .unwrap_or((behind, largest));
+            let s = match cores.get(c).copied().flatten() {
+                Some(Core::Clipped(_)) => s + depth_beside(c, sample.at(along(at, out, reach_mm - s, part.spacing)))?,
+                _ => s,
+            };
             (s < reach_mm).then(|| (l, sample.at(along(at, out, reach_mm - s, part.spacing)) as f32))
         })
         .collect();
+    // A clipped metal's edge read lies outside its end: the voxels between are bloom too. Those
+    // within its end take the ceiling, as an unblurred scan would clip them, so that segmentation's
+    // rule for a clipped scan (its metal is what reaches the ceiling) keeps the whole restoration.
+    let mut raised: Vec<(usize, f32)> = Vec::new();
+    if clipped_grey.iter().any(Option::is_some) {
+        let outside: Vec<bool> = inside.iter().map(|&v| !v).collect();
+        let within = distance_mm(d, part.spacing, &outside);
+        let (bloom, metal): (Vec<_>, Vec<_>) = (0..inside.len()).into_par_iter().filter_map(|l| {
+            let c = component[l] as usize;
+            let Some(Core::Clipped(ceiling)) = cores[c] else { return None };
+            if !inside[l] || clipped_grey[c].is_none() {
+                return None;
+            }
+            let bloom = || {
+                let at = ijk(l, d);
+                let out = sample.gradient(at).map(|g| g.map(|v| -v))?;
+                let to_edge = (0..)
+                    .map(|k| f64::from(k) * step)
+                    .take_while(|&s| s <= reach_mm + 2.0 * part.min_spacing())
+                    .find(|&s| !in_metal(along(at, out, s, part.spacing)))?;
+                let s = depth_beside(c, sample.at(along(at, out, to_edge + reach_mm, part.spacing)))? - to_edge;
+                (s >= 0.0 && s < reach_mm).then(|| sample.at(along(at, out, reach_mm - s, part.spacing)) as f32)
+            };
+            let near_edge = f64::from(within[l]) <= reach_mm + max_spacing;
+            Some(near_edge.then(bloom).flatten().map_or((l, ceiling as f32, false), |v| (l, v, true)))
+        }).partition(|&(_, _, is_bloom)| is_bloom);
+        changed.extend(bloom.into_iter().map(|(l, v, _)| (l, v)));
+        raised = metal.into_iter().map(|(l, v, _)| (l, v)).collect();
+    }
     if changed.is_empty() {
         return None;
     }
     let mut out = vol.clone();
-    for &(l, v) in &changed {
+    for &(l, v) in changed.iter().chain(&raised) {
         let p = ijk(l, d);
         let [i, j, k] = [0, 1, 2].map(|c| p[c] as usize + region.min[c]);
         let n = out.index(i, j, k);
         out.values[n] = v;
     }
-    Some((out, MetalBloom { metal_greys: metal_greys.into_iter().map(|(_, g)| g).collect(), blur_mm, reach_mm, voxels: changed.len() }))
+    let bloom = MetalBloom { metal_greys: found.into_iter().map(|(_, g)| g).collect(), clipped_at: ceiling.filter(|_| clipped_grey.iter().any(Option::is_some)), blur_mm, reach_mm, voxels: changed.len() };
+    Some((out, bloom))
+}
+
+/// A restoration's core: its metal's grey, or the scan's maximum that clips it.
+#[derive(Clone, Copy, Debug)]
+enum Core {
+    Measured(f64),
+    Clipped(f64),
+}
+
+/// What a line out across an edge from a bright side (`top`) reads.
+struct EdgeLine {
+    /// Where (mm along the line) it crosses the levels a quarter and three quarters of the way
+    /// from the tissue beyond to `top`.
+    s25: f64,
+    s75: f64,
+    /// The tissue beyond: the median grey `FAR_MM` past the edge's crossing, and the spread
+    /// (interquartile) of those reads.
+    tissue: f64,
+    spread: f64,
+}
+
+impl EdgeLine {
+    /// From `from` (mm, on the bright side) outward; `None` where the line does not start at or
+    /// above `level`, or what lies beyond is not darker than it.
+    fn read(line: impl Fn(f64) -> f64, step: f64, from: f64, level: f64, top: f64) -> Option<EdgeLine> {
+        let crossing = |level: f64, start: f64| -> Option<f64> {
+            let mut s = start;
+            let mut before = line(s);
+            while s < MAX_REACH_MM + FAR_MM.1 {
+                let next = line(s + step);
+                if before >= level && next < level {
+                    return Some(s + step * (before - level) / (before - next));
+                }
+                (s, before) = (s + step, next);
+            }
+            None
+        };
+        if line(from) < level {
+            return None;
+        }
+        let s_edge = crossing(level, from)?;
+        let mut far: Vec<f64> = (0..)
+            .map(|k| s_edge + FAR_MM.0 + k as f64 * step)
+            .take_while(|&s| s <= s_edge + FAR_MM.1)
+            .map(&line)
+            .collect();
+        far.sort_by(f64::total_cmp);
+        let tissue = *far.get(far.len() / 2)?;
+        if tissue >= level {
+            return None;
+        }
+        let spread = far[far.len() * 3 / 4] - far[far.len() / 4];
+        let s75 = crossing(tissue + 0.75 * (top - tissue), from)?;
+        let s25 = crossing(tissue + 0.25 * (top - tissue), s75)?;
+        Some(EdgeLine { s25, s75, tissue, spread })
+    }
+}
+
+/// Φ, the standard normal's distribution function.
+fn phi(z: f64) -> f64 {
+    0.5 * libm::erfc(-z / std::f64::consts::SQRT_2)
+}
+
+/// Φ⁻¹ on (0, 1), by bisection (a few hundred calls a scan).
+fn probit(p: f64) -> f64 {
+    let (mut lo, mut hi) = (-12.0, 12.0);
+    for _ in 0..64 {
+        let z = 0.5 * (lo + hi);
+        if phi(z) < p { lo = z } else { hi = z }
+    }
+    0.5 * (lo + hi)
+}
+
+/// A clipped metal's grey from one line's tail. Beyond the metal's end the grey is
+/// `tissue + (metal − tissue)·Φ(−x/σ)` at `x` mm out; with σ known, the distance between the
+/// tail's quarter and three-quarter crossings of the way to the ceiling gives the metal's grey
+/// (the higher the metal, the shorter its tail below the ceiling). Fitting σ as well from the
+/// tail alone was ill-conditioned.
+fn clipped_metal_grey(line: &EdgeLine, ceiling: f64, blur_mm: f64) -> Option<f64> {
+    let k = (line.s25 - line.s75) / blur_mm;
+    if !(k > 0.0) {
+        return None;
+    }
+    // z: the quarter crossing's place in σ out from the metal's end, where Φ(z + k) = 3 Φ(z).
+    // ln Φ(z + k) − ln Φ(z) falls as z rises (Φ is log-concave); at most Φ⁻¹(¼), an unclipped
+    // edge's (a wider tail is a metal that barely passes the ceiling).
+    let excess = |z: f64| phi(z + k).ln() - phi(z).ln() - 3f64.ln();
+    let (mut lo, mut hi) = (-12.0, probit(0.25));
+    if excess(hi) >= 0.0 {
+        lo = hi;
+    }
+    for _ in 0..64 {
+        let z = 0.5 * (lo + hi);
+        if excess(z) > 0.0 { lo = z } else { hi = z }
+    }
+    let grey = line.tissue + 0.25 * (ceiling - line.tissue) / phi(0.5 * (lo + hi));
+    grey.is_finite().then_some(grey)
+}
+
+/// How far inside the iso-surface of `level` a metal of grey `metal` ends, beside a tissue of
+/// grey `tissue`, at a blur of `blur_mm`: where `tissue + (metal − tissue)·Φ(−x/σ)` = `level`.
+fn clipped_depth(level: f64, tissue: f64, metal: f64, blur_mm: f64) -> f64 {
+    let share = (level - tissue) / (metal - tissue);
+    if share > 0.0 && share < 0.5 { -blur_mm * probit(share) } else { 0.0 }
+}
+
+/// The blur (σ, mm) across the crown's own edges: the enamel's against what lies beyond it (the
+/// medium outside, or the dentin within), each line's quarter and three-quarter crossings as on
+/// a metal's edge. Lines within `CLEAR_OF_METAL_MM` of the metal, or whose tissue beyond is not
+/// one plateau (a tenth of the contrast), are left out.
+fn crown_widths(part: &Volume, cal: &Calibration, is_metal: &[bool], step: f64) -> Vec<f64> {
+    const CLEAR_OF_METAL_MM: f64 = 1.0;
+    const ENAMEL_DEPTH_MM: f64 = 0.5;
+    let d = part.dims;
+    let (enamel, edge_level, top_level) = (cal.peak(Label::Enamel), cal.mid(Label::Dentin, Label::Enamel), cal.mid(Label::Enamel, Label::Metal));
+    let is_enamel: Vec<bool> = part.values.par_iter().map(|&v| (edge_level..top_level).contains(&f64::from(v))).collect();
+    let from_metal = distance_mm(d, part.spacing, is_metal);
+    let sample = Sampler { values: &part.values, dims: d, spacing: part.spacing };
+    (0..is_enamel.len())
+        .into_par_iter()
+        .filter(|&l| f64::from(part.values[l]) < edge_level && f64::from(from_metal[l]) > CLEAR_OF_METAL_MM)
+        .filter(|&l| face_neighbours(l, d).into_iter().flatten().any(|q| is_enamel[q]))
+        .filter_map(|l| {
+            let at = ijk(l, d);
+            let out = sample.gradient(at).map(|g| g.map(|v| -v))?;
+            let line = EdgeLine::read(|s| sample.at(along(at, out, s, part.spacing)), step, -ENAMEL_DEPTH_MM, edge_level, enamel)?;
+            (line.spread < 0.1 * (enamel - line.tissue)).then(|| (line.s25 - line.s75) / 1.349)
+        })
+        .collect()
 }
 
 fn ijk(l: usize, d: [usize; 3]) -> [f64; 3] {
@@ -403,10 +658,51 @@ mod tests {
     }
 
     #[test]
-    fn a_clipped_filling_and_a_scan_without_one_are_left_as_they_are() {
-        let (clipped, cal) = filled_scan(N, &[AMALGAM], 5000.0);
-        assert_eq!(unbloom(&clipped, &cal), None);
-        assert!(saturated_metal(&clipped, &cal).is_some_and(|s| s.grey == 5000.0 && s.voxels > 1000));
+    fn a_clipped_fillings_grey_and_end_are_read_from_its_bloom() {
+        // The unclipped filling's metal class is 6.5 mm³ (the test above); clipped, its bloom
+        // made it 13.9 mm³. Read from the tail, the metal reads low the more the scan clips (the
+        // crown's blur, 0.211 mm, is a little under the metal edge's 0.220), so its end lies a
+        // little outside the truth: some tissue beside it is counted metal, none metal tissue.
+        for (ceiling, grey_within, metal_mm3_within) in [(8000.0, 0.10, (6.5, 8.6)), (5000.0, 0.25, (6.5, 9.3))] {
+            let (scan, cal) = filled_scan(N, &[AMALGAM], ceiling);
+            assert!(saturated_metal(&scan, &cal).is_some_and(|s| s.grey == f64::from(ceiling) && s.voxels > 1000));
+            let (clean, bloom) = unbloom(&scan, &cal).expect("a clipped filling is measured");
+            assert_eq!(bloom.clipped_at, Some(f64::from(ceiling)), "{bloom:?}");
+            assert_eq!(bloom.metal_greys.len(), 1, "{bloom:?}");
+            assert!((bloom.metal_greys[0] / 12000.0 - 1.0).abs() < grey_within, "{ceiling}: {bloom:?}");
+            assert!((0.18..0.26).contains(&bloom.blur_mm), "{bloom:?}");
+            let (before, after) = (metal_mm3(&scan, &cal), metal_mm3(&clean, &cal));
+            assert!(before > 13.0, "the bloom this test is about: {before} mm³ of metal");
+            assert!((metal_mm3_within.0..metal_mm3_within.1).contains(&after), "{ceiling}: {after} mm³ of metal");
+            // Within its end the metal reads the ceiling, as segmentation's rule for a clipped scan wants.
+            let at_ceiling = clean.values.iter().filter(|&&v| v >= ceiling).count() as f64 * H * H * H;
+            assert!((at_ceiling - after).abs() < 0.05 * after, "{ceiling}: {at_ceiling} mm³ at the ceiling, {after} mm³ of metal");
+            let (wrong_before, wrong_after, seen) = misread(&scan, &clean, &cal, &[AMALGAM]);
+            assert!(wrong_before > seen / 10, "the bloom this test is about: {wrong_before} of {seen} voxels in another class");
+            assert_eq!(wrong_after, 0, "{ceiling}: {wrong_after} of {seen} tissue voxels beside the metal in another class");
+        }
+    }
+
+    #[test]
+    fn a_clipped_scans_bloom_is_hidden_for_its_first_calibration() {
+        let (scan, _) = filled_scan(N, &[AMALGAM], 5000.0);
+        let (hidden, top) = hide_saturated_bloom(&scan).expect("a clipped scan");
+        assert!(top < 5000.0 && top > 4999.0, "{top}");
+        // Nothing of the bloom (above the enamel's 2900 and under the ceiling) is left, and the
+        // tissue clear of the metal (1.2 mm from its box) is as it was.
+        let ramp = hidden.values.iter().filter(|&&v| (3400.0..4999.0).contains(&v)).count();
+        assert_eq!(ramp, 0, "{ramp} voxels of bloom left");
+        let far = (0..scan.values.len()).filter(|&n| {
+            let p = [n % N, (n / N) % N, n / (N * N)].map(|v| v as f64 * H);
+            (0..3).map(|c| (AMALGAM.0[c] - p[c]).max(p[c] - AMALGAM.1[c])).fold(f64::NEG_INFINITY, f64::max) > 1.2
+        });
+        assert!(far.clone().count() > 50_000 && far.clone().all(|n| hidden.values[n] == scan.values[n]));
+        let (unclipped, _) = filled_scan(N, &[AMALGAM], f32::INFINITY);
+        assert!(hide_saturated_bloom(&unclipped).is_none());
+    }
+
+    #[test]
+    fn a_scan_without_a_filling_is_left_as_it_is() {
         let (plain, cal) = filled_scan(N, &[], f32::INFINITY);
         assert_eq!(unbloom(&plain, &cal), None);
         assert_eq!(saturated_metal(&plain, &cal), None);

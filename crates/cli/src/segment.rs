@@ -114,8 +114,9 @@ fn print_calibration(report: &dentsim_sim::tissues::from_scan::ScanReport) {
     }
     if let Some(b) = &report.metal_bloom {
         let greys: Vec<String> = b.metal_greys.iter().map(|g| format!("{g:.0}")).collect();
+        let clipped = b.clipped_at.map_or(String::new(), |c| format!("; clipped at {c:.0}, read from the bloom's tail"));
         println!(
-            "metal restorations (grey {}): their blur (σ {:.2} mm) taken off {} voxels within {:.2} mm before calibrating again",
+            "metal restorations (grey {}{clipped}): their blur (σ {:.2} mm) taken off {} voxels within {:.2} mm before calibrating again",
             greys.join(", "),
             b.blur_mm,
             b.voxels,

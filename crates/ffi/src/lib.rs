@@ -1064,7 +1064,7 @@ mod tests {
             triangles: Vec::new(),
             warnings: Vec::new(),
         };
-        let clipped = dentsim_sim::tissues::warnings::saturated_metal_warning(32767.0, 300, 12.0, 600.0).unwrap();
+        let clipped = dentsim_sim::tissues::warnings::saturated_metal_warning(32767.0, 300, 12.0, 600.0, None).unwrap();
         let mut surfaces = vec![named("enamel"), named("dentin"), named("pulp")];
         attach_warnings(&mut surfaces, &["the pulp's canals were not found".into(), clipped.clone()]);
         assert_eq!(surfaces[0].warnings, vec![clipped]);

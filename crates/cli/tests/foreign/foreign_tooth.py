@@ -23,7 +23,8 @@ air), or custom (the sweep's: SHAPE molar|incisor, MEDIUM air|water|jaw, VOXEL m
 and FILLING (an occlusal metal filling's HU, none if empty) from the environment, HU as stored,
 NIfTI int16; see sweep.py), or filled_jaw (custom's molar in a jaw at 0.3 mm, a 12000 HU filling), or filled_incisor (custom's
 incisor in a jaw at 0.25 mm, the same filling), or filled_incisor_air (the same incisor in air), or clipped_filling (a molar in air at 0.2 mm
-whose 40000 HU filling the int16 storage clips at 32767, as a saturating scanner would). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+whose 40000 HU filling the int16 storage clips at 32767, as a saturating scanner would), or clipped_jaw (the same filling
+clipped, in a molar in a jaw at 0.2 mm). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -34,7 +35,7 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-CUSTOM = CASE in ("custom", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling")
+CUSTOM = CASE in ("custom", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling", "clipped_jaw")
 if CASE == "filled_jaw":  # the sweep's molar in a jaw at 0.3 mm with an amalgam filling
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "jaw", 0.3, 40.0, 22, "12000"
 elif CASE == "filled_incisor":  # the sweep's incisor in a jaw at 0.25 mm with one
@@ -43,6 +44,8 @@ elif CASE == "filled_incisor_air":  # the sweep's incisor_air_0.25_40 with one (
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "incisor", "air", 0.25, 40.0, 152, "12000"
 elif CASE == "clipped_filling":  # the sweep's molar_air_0.2_40, its filling clipped at int16's top
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "air", 0.2, 40.0, 805, "40000"
+elif CASE == "clipped_jaw":  # the same clipped filling in the sweep's molar_jaw_0.2_40 (its seed)
+    SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "jaw", 0.2, 40.0, 805, "40000"
 elif CUSTOM:
     SHAPE, MEDIUM = os.environ.get("SHAPE", "molar"), os.environ.get("MEDIUM", "air")
     VOXEL, PULP_HU, SEED = float(os.environ.get("VOXEL", "0.3")), float(os.environ.get("PULP", "40")), int(os.environ.get("SEED", "1"))

@@ -6,7 +6,7 @@
 //! (see [`NestedBuilder::match_partial_volume`]).
 use std::time::Instant;
 
-use dentsim_cbct::bloom::{saturated_metal, unbloom, MetalBloom};
+use dentsim_cbct::bloom::{hide_saturated_bloom, saturated_metal, unbloom, MetalBloom};
 use dentsim_cbct::phantom::gaussian_blur;
 use dentsim_cbct::volume::face_neighbours;
 use dentsim_cbct::{calibrate_below, crop, crop_labels, enclosed_volume, find_teeth, pad, pad_labels, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
@@ -197,7 +197,15 @@ impl TissuesFromScan {
     /// the enamel's peak (a filled incisor's by +90 of a 1100 enamel–dentin contrast) and with it
     /// the enamel's threshold.
     fn calibrate_unbloomed(&self, scan: &Volume) -> Result<(Option<Volume>, Calibration, Option<MetalBloom>)> {
-        let calibration = self.calibrate(scan, f64::INFINITY)?;
+        let calibration = match self.calibrate(scan, f64::INFINITY) {
+            Ok(calibration) => calibration,
+            // A clipped restoration's bloom may crowd the histogram: read it without the bloom,
+            // or give the first refusal.
+            Err(refusal) => match hide_saturated_bloom(scan).filter(|_| self.thresholds.is_none()) {
+                Some((hidden, top)) => self.calibrate(&hidden, top).map_err(|_| refusal)?,
+                None => return Err(refusal),
+            },
+        };
         let Some((unbloomed, bloom)) = unbloom(scan, &calibration) else {
             return Ok((None, calibration, None));
         };
@@ -296,7 +304,8 @@ impl TissuesFromScan {
         let canal_warning = canal_shortfall(&tooth_scan, &tooth_labels).and_then(|(short, length)| canal_warning(short, length, tooth_scan.min_spacing()));
         let metal_warning = saturated_metal(&tooth_scan, &calibration).and_then(|clipped| {
             let (near, tooth) = beside_metal(&tooth_scan, &tooth_labels, &calibration, SATURATED_METAL_REACH_MM);
-            saturated_metal_warning(clipped.grey, clipped.voxels, near, tooth)
+            let estimated = metal_bloom.as_ref().filter(|b| b.clipped_at.is_some()).and_then(|b| b.metal_greys.first().copied());
+            saturated_metal_warning(clipped.grey, clipped.voxels, near, tooth, estimated)
         });
 
         let clock = Instant::now();

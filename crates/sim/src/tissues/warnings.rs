@@ -75,19 +75,27 @@ pub const SATURATED_METAL_REACH_MM: f64 = 0.5;
 /// How [`saturated_metal_warning`]'s text starts (the plugin puts it on the enamel's surface).
 pub const SATURATED_METAL: &str = "a metal restoration saturates the scan";
 
-/// A warning when a restoration the scanner clipped (`voxels` at its maximum `grey`) lies within
+/// A warning when a restoration the scanner clipped (`voxels` at its maximum `grey`: with its
+/// grey `estimated`, the metal within its end as read, raised to the ceiling) lies within
 /// [`SATURATED_METAL_REACH_MM`] of `near_mm3` of the tooth's enamel and dentin (of `tooth_mm3`;
-/// measured from the metal's grey, whose bloom lies beyond its labels): its own grey, its
-/// half-way surface and its bloom's reach are unknown, so that much of the tooth may be read as
-/// the wrong tissue (the foreign sweep's clipped fillings: enamel +7…+8 %,
-/// dentin −5…−6.5 %).
-pub fn saturated_metal_warning(grey: f64, voxels: usize, near_mm3: f64, tooth_mm3: f64) -> Option<String> {
+/// measured from the metal's grey, whose bloom lies beyond its labels). Its own grey, its end
+/// and its bloom's reach were either read from the bloom's tail below the ceiling (`estimated`,
+/// the metal's grey so read: less certain than an unclipped metal's, it reads low the more the
+/// scan clips) or not at all, so that much of the tooth may be read as the wrong tissue (the
+/// foreign sweep's clipped fillings unread: enamel +7…+8 %, dentin −5…−6.5 %).
+pub fn saturated_metal_warning(grey: f64, voxels: usize, near_mm3: f64, tooth_mm3: f64, estimated: Option<f64>) -> Option<String> {
     (near_mm3 > 0.0 && tooth_mm3 > 0.0).then(|| {
+        let read = match estimated {
+            Some(metal) => format!(
+                "at its maximum grey {grey:.0}, so the metal's own grey (about {metal:.0}) and its end ({voxels} voxels) were read from the bloom's tail below that ceiling, less surely than in a core"
+            ),
+            None => format!("({voxels} voxels at its maximum grey {grey:.0}), so the metal's own grey and its blur's reach cannot be measured"),
+        };
         format!(
-            "{SATURATED_METAL} ({voxels} voxels at its maximum grey {grey:.0}), so the metal's own grey and its blur's reach cannot be measured: \
+            "{SATURATED_METAL} {read}: \
              {near_mm3:.1} mm³ of enamel and dentin ({:.1} % of the tooth's) lie within {SATURATED_METAL_REACH_MM} mm of it, where the blur may have \
              made dentin enamel or tooth metal, and their volumes are uncertain by up to that much. A scan that does not clip the metal \
-             (a wider grey range) lets its bloom be measured and taken off",
+             (a wider grey range) lets its bloom be measured in its core and taken off",
             100.0 * near_mm3 / tooth_mm3
         )
     })
@@ -157,15 +165,19 @@ pub(crate) fn canal_shortfall(scan: &Volume, labels: &dentsim_cbct::LabelVolume)
 mod tests {
     use super::*;
 
-    /// A tooth without a pulp, or with a speck of one, is reported with what to try; a tooth
-    /// with a pulp of a tooth's share is not.
     #[test]
     fn enamel_and_dentin_beside_a_clipped_restoration_are_never_silent() {
-        let w = saturated_metal_warning(32767.0, 412, 18.4, 640.0).expect("warned");
+        let w = saturated_metal_warning(32767.0, 412, 18.4, 640.0, None).expect("warned");
         assert!(w.starts_with(SATURATED_METAL) && w.contains("32767") && w.contains("18.4 mm³") && w.contains("2.9 %"), "{w}");
-        assert_eq!(saturated_metal_warning(32767.0, 412, 0.0, 640.0), None, "no tooth near the metal, nothing to say");
+        assert!(w.contains("cannot be measured"), "{w}");
+        // With the metal's grey read from its bloom's tail, the warning says so and its figure.
+        let w = saturated_metal_warning(32767.0, 412, 18.4, 640.0, Some(41250.4)).expect("warned");
+        assert!(w.starts_with(SATURATED_METAL) && w.contains("about 41250") && w.contains("tail") && w.contains("18.4 mm³"), "{w}");
+        assert_eq!(saturated_metal_warning(32767.0, 412, 0.0, 640.0, None), None, "no tooth near the metal, nothing to say");
     }
 
+    /// A tooth without a pulp, or with a speck of one, is reported with what to try; a tooth
+    /// with a pulp of a tooth's share is not.
     #[test]
     fn a_tooth_without_a_pulp_is_never_silent() {
         let cal = Calibration::manual(&[(Label::Air, 0.0), (Label::Dentin, 2000.0), (Label::Enamel, 3000.0)]).unwrap();
