@@ -106,9 +106,12 @@ const HIDDEN_MM: f64 = 1.0;
 /// peaks were bloom but two).
 pub fn hide_saturated_bloom(vol: &Volume) -> Option<(Volume, f64)> {
     let top = vol.values.par_iter().copied().reduce(|| f32::NEG_INFINITY, f32::max);
+    if !top.is_finite() {
+        return None;
+    }
     let ceiling = top - 1e-5 * top.abs().max(1.0);
     let saturated: Vec<usize> = (0..vol.values.len()).into_par_iter().filter(|&m| vol.values[m] >= ceiling).collect();
-    if saturated.len() < MIN_METAL_VOXELS || !top.is_finite() {
+    if saturated.len() < MIN_METAL_VOXELS {
         return None;
     }
     let [nx, ny, _] = vol.dims;
@@ -128,7 +131,7 @@ pub fn hide_saturated_bloom(vol: &Volume) -> Option<(Volume, f64)> {
     let mut out = vol.clone();
     let d = part.dims;
     for (l, _) in distance.iter().enumerate().filter(|(_, &v)| f64::from(v) <= HIDDEN_MM) {
-        let [i, j, k] = [l % d[0], (l / d[0]) % d[1], l / (d[0] * d[1])].map(|v| v);
+        let [i, j, k] = [l % d[0], (l / d[0]) % d[1], l / (d[0] * d[1])];
         let n = out.index(i + region.min[0], j + region.min[1], k + region.min[2]);
         out.values[n] = top;
     }
@@ -163,7 +166,7 @@ pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> 
     // Each restoration (a component of the metal class) its own metal's grey: the median of its
     // brightest tenth. Its edge and bloom hold most of its class (a 3 mm filling at a 0.2 mm
     // blur: three quarters), so its median is too dark. A core at the scan's clipped maximum
-    // is read from the bloom's tail below it instead (see `ClippedEdge`).
+    // is read from the bloom's tail below it instead ([`clipped_metal_grey`]).
     let enamel = cal.peak(Label::Enamel);
     let is_metal: Vec<bool> = part.values.par_iter().map(|&v| classifier.classify(f64::from(v)) == Label::Metal).collect();
     let (component, sizes) = components(d, &is_metal);
@@ -213,17 +216,17 @@ pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> 
         .filter_map(|l| face_neighbours(l, d).into_iter().flatten().find(|&q| inside[q]).map(|q| (l, q)))
         .collect();
     let step = 0.25 * part.min_spacing();
-    let read_line = |l: usize, level: f64, top: f64, from: f64| -> Option<EdgeLine> {
+    let read_line = |l: usize, level: f64, top: f64| -> Option<EdgeLine> {
         let at = ijk(l, d);
         let out = sample.gradient(at).map(|g| g.map(|v| -v))?;
-        EdgeLine::read(|s| sample.at(along(at, out, s, part.spacing)), step, from, level, top)
+        EdgeLine::read(|s| sample.at(along(at, out, s, part.spacing)), step, -MAX_REACH_MM, level, top)
     };
     // The blur: on a measured metal's lines, the distance between the crossings of a quarter
     // and three quarters of the way from the tissue beyond to the metal.
     let mut widths: Vec<f64> = edge
         .par_iter()
         .filter_map(|&(l, metal)| {
-            let line = read_line(l, half_at[metal], metal_grey[component[metal] as usize]?, -MAX_REACH_MM)?;
+            let line = read_line(l, half_at[metal], metal_grey[component[metal] as usize]?)?;
             Some((line.s25 - line.s75) / 1.349)
         })
         .collect();
@@ -248,7 +251,7 @@ pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> 
         .filter_map(|&(l, metal)| {
             let c = component[metal] as usize;
             let Some(Core::Clipped(top)) = cores[c] else { return None };
-            let line = read_line(l, half_at[metal], top, -MAX_REACH_MM)?;
+            let line = read_line(l, half_at[metal], top)?;
             clipped_metal_grey(&line, top, blur_mm).map(|g| (c, g))
         })
         .collect();
@@ -256,9 +259,7 @@ pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> 
         tails[c].push(g);
     }
     let mut found: Vec<(usize, f64)> = metal_grey.iter().enumerate().filter_map(|(c, g)| g.map(|g| (sizes[c], g))).collect();
-    // How far inside its edge read each restoration's metal ends, beside a tissue of a grey:
-    // none for a measured one (its edge read is its end); a clipped one with too few tails is
-    // left as it is.
+    // A clipped restoration with too few tails is left as it is.
     let mut clipped_grey: Vec<Option<f64>> = vec![None; cores.len()];
     for (c, t) in tails.iter_mut().enumerate().filter(|(_, t)| t.len() >= MIN_EDGE_LINES) {
         let mid = t.len() / 2;
@@ -278,6 +279,8 @@ pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> 
     let share = contrast / 16.0 / (brightest - dentin);
     let sigmas = if share > 0.0 && share < 0.5 { REACH_SIGMAS.max(-probit(share)) } else { REACH_SIGMAS };
     let reach_mm = (sigmas * blur_mm).min(MAX_REACH_MM);
+    // How far inside its edge read each restoration's metal ends, beside a tissue of a grey:
+    // not at all for a measured one (its edge read is its end).
     let depth_beside = |c: usize, tissue: f64| -> Option<f64> {
         match cores[c]? {
             Core::Measured(_) => Some(0.0),
