@@ -559,7 +559,7 @@ fn bodies(found: &[Peak], d: f64, e: f64, grid: &Coarse) -> Vec<Peak> {
         let p = lower[i];
         let lo = if i == 0 { f64::NEG_INFINITY } else { 0.5 * (lower[i - 1].grey + p.grey) };
         let hi = lower.get(i + 1).map_or(0.5 * (p.grey + d), |q| 0.5 * (p.grey + q.grey));
-        p.count >= medium || (i == 0 && grid.reaches_border(lo, hi)) || grid.body_mm3(lo, hi, outside()) >= MIN_BODY_MM3
+        p.count >= medium || (i == 0 && grid.reaches_border(lo, hi)) || grid.body_mm3(lo, hi, outside(), MIN_BODY_MM3) >= MIN_BODY_MM3
     };
     let kept: Vec<bool> = (0..lower.len()).map(body).collect();
     let mut lower_kept = kept.into_iter();
@@ -735,10 +735,11 @@ impl Coarse {
         Some((median(&mut dd), median(&mut de)))
     }
 
-    /// Volume (mm³) of the voxels with grey in `lo..hi` whose whole 3³ neighbourhood's is too.
+    /// Volume (mm³) of the voxels with grey in `lo..hi` whose whole 3³ neighbourhood's is too,
+    /// counted up to `enough_mm3` (a jaw's bone and soft tissue are bodies of thousands).
     /// (The 6 face neighbours alone let an oblique edge's mix count: a filled incisor's crown in
     /// air at 0.15 mm left 5.05 mm³ of it at the pulp's grey, which was then read as bone.)
-    fn body_mm3(&self, lo: f64, hi: f64, outside: Outside) -> f64 {
+    fn body_mm3(&self, lo: f64, hi: f64, outside: Outside, enough_mm3: f64) -> f64 {
         let [nx, ny, nz] = self.dims;
         let within = |n: usize| outside.has(n) && (lo..hi).contains(&f64::from(self.values[n]));
         let whole = |n: usize| {
@@ -752,8 +753,10 @@ impl Coarse {
                 })
             })
         };
-        let count = (0..self.values.len()).into_par_iter().filter(|&n| within(n) && whole(n)).count();
-        count as f64 * self.spacing.iter().product::<f64>()
+        let cell_mm3 = self.spacing.iter().product::<f64>();
+        let enough = (enough_mm3 / cell_mm3).ceil().min(usize::MAX as f64) as usize;
+        let count = (0..self.values.len()).into_par_iter().filter(|&n| within(n) && whole(n)).take_any(enough).count();
+        count as f64 * cell_mm3
     }
 
     /// Whether a voxel on the grid's border has grey in `lo..hi` (the six faces only).
@@ -1167,11 +1170,11 @@ mod tests {
         for (grid, what) in [(scan(0.0), "plane"), (wedge(), "wedge")] {
             let outsides = grid.outside(below_dentin(1800.0, 2900.0));
             let mixed = grid.values.iter().filter(|&&v| (-336.0..1065.0).contains(&f64::from(v))).count() as f64 * 0.027;
-            let mix = grid.body_mm3(-336.0, 1065.0, outsides.first());
+            let mix = grid.body_mm3(-336.0, 1065.0, outsides.first(), f64::INFINITY);
             assert!(mixed > 20.0 && mix < 0.5, "{what}: {mixed} mm³ of the mix's grey, {mix} mm³ of it a body");
         }
         let grid = scan(1.5);
-        let layer = grid.body_mm3(-480.0, 920.0, grid.outside(below_dentin(1800.0, 2900.0)).first());
+        let layer = grid.body_mm3(-480.0, 920.0, grid.outside(below_dentin(1800.0, 2900.0)).first(), f64::INFINITY);
         assert!(layer > MIN_BODY_MM3, "the soft tissue layer: {layer} mm³ of body");
     }
 }
