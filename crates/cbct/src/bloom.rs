@@ -20,7 +20,7 @@
 //! and the tissue beside it. Within that end the scan is raised to the ceiling, as an unblurred
 //! scan would read it, which segmentation's `clean_metal` (a clipped scan's metal is what reaches
 //! the ceiling) then keeps whole. For a first calibration of a clipped scan, whose bloom's bumps
-//! may crowd its histogram, [`hide_saturated_bloom`] hides it.
+//! may crowd its histogram, [`hide_bloom_above`] hides it (an unclipped one's too).
 
 use crate::calibrate::Calibration;
 use crate::mask::components;
@@ -95,28 +95,49 @@ fn saturation(vol: &Volume, metal: &[usize]) -> Option<SaturatedMetal> {
     (voxels >= MIN_METAL_VOXELS).then(|| SaturatedMetal { grey: f64::from(top), voxels })
 }
 
-/// How far (mm) from a clipped scan's saturated voxels [`hide_saturated_bloom`] reaches: past
-/// the bloom of a blur up to 0.35 mm (a 0.4 mm scan's) beyond the metal's end.
+/// How far (mm) from a bright restoration [`hide_bloom_above`] reaches: past the bloom of a blur
+/// up to 0.35 mm (a 0.4 mm scan's) beyond the metal's end.
 const HIDDEN_MM: f64 = 1.0;
 
-/// `vol` with every voxel within [`HIDDEN_MM`] of its maximum grey set to that maximum, or
-/// `None` unless at least [`MIN_METAL_VOXELS`] voxels reach it (a clipped scan). For a first
-/// calibration only: a saturated restoration's bloom ramps from the ceiling down to the tissue
-/// beside it, and in a jaw its bumps crowd the histogram's peaks out (a clipped jaw molar's nine
-/// peaks were bloom but two).
-pub fn hide_saturated_bloom(vol: &Volume) -> Option<(Volume, f64)> {
+/// The grey levels above which a first calibration that failed may hide a restoration's bloom
+/// ([`hide_bloom_above`]), the likeliest first: just under a clipped scan's maximum (at least
+/// [`MIN_METAL_VOXELS`] voxels reach it), then a half, a quarter and an eighth of the way from
+/// the scan's median grey to its maximum. A restoration's bloom ramps from its metal's grey down
+/// to the tissue beside it, and its bumps crowd the histogram's peaks out: a clipped jaw molar's
+/// nine were bloom but two, an unclipped 30000 HU filling's in a 0.3 mm incisor all but two.
+pub fn bloom_levels(vol: &Volume) -> Vec<f64> {
     let top = vol.values.par_iter().copied().reduce(|| f32::NEG_INFINITY, f32::max);
     if !top.is_finite() {
-        return None;
+        return Vec::new();
     }
     let ceiling = top - 1e-5 * top.abs().max(1.0);
-    let saturated: Vec<usize> = (0..vol.values.len()).into_par_iter().filter(|&m| vol.values[m] >= ceiling).collect();
-    if saturated.len() < MIN_METAL_VOXELS {
+    let mut levels = Vec::new();
+    if vol.values.par_iter().filter(|&&v| v >= ceiling).count() >= MIN_METAL_VOXELS {
+        levels.push(f64::from(ceiling));
+    }
+    // The median of every 7th voxel: a level's place, not a measure.
+    let mut sample: Vec<f32> = vol.values.iter().step_by(7).copied().filter(|v| v.is_finite()).collect();
+    if sample.is_empty() {
+        return levels;
+    }
+    let mid = sample.len() / 2;
+    let median = f64::from(*sample.select_nth_unstable_by(mid, f32::total_cmp).1);
+    levels.extend([0.5, 0.25, 0.125].map(|f| median + f * (f64::from(top) - median)));
+    levels
+}
+
+/// `vol` with every voxel within [`HIDDEN_MM`] of one at `level` or above set to the scan's
+/// maximum, for a calibration counting grey values up to `level` only; `None` unless at least
+/// [`MIN_METAL_VOXELS`] voxels reach it.
+pub fn hide_bloom_above(vol: &Volume, level: f64) -> Option<Volume> {
+    let top = vol.values.par_iter().copied().reduce(|| f32::NEG_INFINITY, f32::max);
+    let bright: Vec<usize> = (0..vol.values.len()).into_par_iter().filter(|&m| f64::from(vol.values[m]) >= level).collect();
+    if bright.len() < MIN_METAL_VOXELS || !top.is_finite() {
         return None;
     }
     let [nx, ny, _] = vol.dims;
     let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
-    for &m in &saturated {
+    for &m in &bright {
         let p = [m % nx, (m / nx) % ny, m / (nx * ny)];
         for c in 0..3 {
             lo[c] = lo[c].min(p[c]);
@@ -126,8 +147,8 @@ pub fn hide_saturated_bloom(vol: &Volume) -> Option<(Volume, f64)> {
     let pad = 1 + (HIDDEN_MM / vol.min_spacing()).ceil() as usize;
     let region = IndexBox { min: lo.map(|v| v.saturating_sub(pad)), max: [0, 1, 2].map(|c| (hi[c] + pad + 1).min(vol.dims[c])) };
     let part = crop(vol, &region).ok()?;
-    let is_top: Vec<bool> = part.values.par_iter().map(|&v| v >= ceiling).collect();
-    let distance = distance_mm(part.dims, part.spacing, &is_top);
+    let is_bright: Vec<bool> = part.values.par_iter().map(|&v| f64::from(v) >= level).collect();
+    let distance = distance_mm(part.dims, part.spacing, &is_bright);
     let mut out = vol.clone();
     let d = part.dims;
     for (l, _) in distance.iter().enumerate().filter(|(_, &v)| f64::from(v) <= HIDDEN_MM) {
@@ -135,7 +156,7 @@ pub fn hide_saturated_bloom(vol: &Volume) -> Option<(Volume, f64)> {
         let n = out.index(i + region.min[0], j + region.min[1], k + region.min[2]);
         out.values[n] = top;
     }
-    Some((out, f64::from(ceiling)))
+    Some(out)
 }
 
 /// `vol` with its metal restorations' bloom taken off ([`MetalBloom`]); `None` where the scan
@@ -687,10 +708,13 @@ mod tests {
     }
 
     #[test]
-    fn a_clipped_scans_bloom_is_hidden_for_its_first_calibration() {
+    fn a_restorations_bloom_is_hidden_for_a_first_calibration() {
         let (scan, _) = filled_scan(N, &[AMALGAM], 5000.0);
-        let (hidden, top) = hide_saturated_bloom(&scan).expect("a clipped scan");
-        assert!(top < 5000.0 && top > 4999.0, "{top}");
+        let levels = bloom_levels(&scan);
+        // Just under the ceiling first, then down toward the median (the dentin's 1800 here).
+        assert!(levels.len() == 4 && levels[0] < 5000.0 && levels[0] > 4999.0, "{levels:?}");
+        assert!(levels.windows(2).all(|w| w[1] < w[0]) && (levels[1] - 3400.0).abs() < 100.0, "{levels:?}");
+        let hidden = hide_bloom_above(&scan, levels[0]).expect("a clipped scan");
         // Nothing of the bloom (above the enamel's 2900 and under the ceiling) is left, and the
         // tissue clear of the metal (1.2 mm from its box) is as it was.
         let ramp = hidden.values.iter().filter(|&&v| (3400.0..4999.0).contains(&v)).count();
@@ -700,8 +724,12 @@ mod tests {
             (0..3).map(|c| (AMALGAM.0[c] - p[c]).max(p[c] - AMALGAM.1[c])).fold(f64::NEG_INFINITY, f64::max) > 1.2
         });
         assert!(far.clone().count() > 50_000 && far.clone().all(|n| hidden.values[n] == scan.values[n]));
+        // An unclipped scan has no ceiling to start from; its metal lies above the first level.
         let (unclipped, _) = filled_scan(N, &[AMALGAM], f32::INFINITY);
-        assert!(hide_saturated_bloom(&unclipped).is_none());
+        let levels = bloom_levels(&unclipped);
+        assert_eq!(levels.len(), 3, "{levels:?}");
+        let hidden = hide_bloom_above(&unclipped, levels[0]).expect("its metal reaches the level");
+        assert_eq!(hidden.values.iter().filter(|&&v| (3400.0..f32::from(levels[0] as f32)).contains(&v)).count(), 0);
     }
 
     #[test]

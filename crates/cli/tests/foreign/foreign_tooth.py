@@ -24,7 +24,8 @@ and FILLING (an occlusal metal filling's HU, none if empty) from the environment
 NIfTI int16; see sweep.py), or filled_jaw (custom's molar in a jaw at 0.3 mm, a 12000 HU filling), or filled_incisor (custom's
 incisor in a jaw at 0.25 mm, the same filling), or filled_incisor_air (the same incisor in air), or clipped_filling (a molar in air at 0.2 mm
 whose 40000 HU filling the int16 storage clips at 32767, as a saturating scanner would), or clipped_jaw (the same filling
-clipped, in a molar in a jaw at 0.2 mm). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+clipped, in a molar in a jaw at 0.2 mm), or gold_incisor (an unclipped 30000 HU filling, gold's range, in an incisor in air
+at 0.3 mm, its pulp 300 HU, int16 as the sweep's; stored as float32 the same scan was not refused). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -35,7 +36,7 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-CUSTOM = CASE in ("custom", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling", "clipped_jaw")
+CUSTOM = CASE in ("custom", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling", "clipped_jaw", "gold_incisor")
 if CASE == "filled_jaw":  # the sweep's molar in a jaw at 0.3 mm with an amalgam filling
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "jaw", 0.3, 40.0, 22, "12000"
 elif CASE == "filled_incisor":  # the sweep's incisor in a jaw at 0.25 mm with one
@@ -46,6 +47,8 @@ elif CASE == "clipped_filling":  # the sweep's molar_air_0.2_40, its filling cli
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "air", 0.2, 40.0, 805, "40000"
 elif CASE == "clipped_jaw":  # the same clipped filling in the sweep's molar_jaw_0.2_40 (its seed)
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "jaw", 0.2, 40.0, 805, "40000"
+elif CASE == "gold_incisor":  # the sweep's incisor_air_0.3_300 (its seed) with a gold filling
+    SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "incisor", "air", 0.3, 300.0, 823, "30000"
 elif CUSTOM:
     SHAPE, MEDIUM = os.environ.get("SHAPE", "molar"), os.environ.get("MEDIUM", "air")
     VOXEL, PULP_HU, SEED = float(os.environ.get("VOXEL", "0.3")), float(os.environ.get("PULP", "40")), int(os.environ.get("SEED", "1"))
@@ -207,7 +210,7 @@ else:
     affine[:3, :3] = np.diag([-1.0, -1.0, 1.0]) @ rotation @ np.diag(spacing)
     affine[:3, 3] = np.diag([-1.0, -1.0, 1.0]) @ origin
     path = os.path.join(OUT, "tooth.nii.gz")
-    image = nibabel.Nifti1Image(scan.astype(np.int16 if JAW or CASE in ("scaled", "custom") else np.float32), affine)
+    image = nibabel.Nifti1Image(scan.astype(np.int16 if JAW or CASE in ("scaled", "custom", "gold_incisor") else np.float32), affine)
     image.set_qform(affine, code=1)
     image.set_sform(affine, code=1)
     if CASE == "scaled":  # the values are 2 * stored - 1000

@@ -6,7 +6,7 @@
 //! (see [`NestedBuilder::match_partial_volume`]).
 use std::time::Instant;
 
-use dentsim_cbct::bloom::{hide_saturated_bloom, saturated_metal, unbloom, MetalBloom};
+use dentsim_cbct::bloom::{bloom_levels, hide_bloom_above, saturated_metal, unbloom, MetalBloom};
 use dentsim_cbct::phantom::gaussian_blur;
 use dentsim_cbct::volume::face_neighbours;
 use dentsim_cbct::{calibrate_below, crop, crop_labels, enclosed_volume, find_teeth, pad, pad_labels, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
@@ -199,12 +199,13 @@ impl TissuesFromScan {
     fn calibrate_unbloomed(&self, scan: &Volume) -> Result<(Option<Volume>, Calibration, Option<MetalBloom>)> {
         let calibration = match self.calibrate(scan, f64::INFINITY) {
             Ok(calibration) => calibration,
-            // A clipped restoration's bloom may crowd the histogram: read it without the bloom,
-            // or give the first refusal.
-            Err(refusal) => match hide_saturated_bloom(scan).filter(|_| self.thresholds.is_none()) {
-                Some((hidden, top)) => self.calibrate(&hidden, top).map_err(|_| refusal)?,
-                None => return Err(refusal),
-            },
+            // A restoration's bloom may crowd the histogram: read it without the bloom above
+            // each likely level in turn, or give the first refusal.
+            Err(refusal) if self.thresholds.is_none() => bloom_levels(scan)
+                .into_iter()
+                .find_map(|level| self.calibrate(&hide_bloom_above(scan, level)?, level).ok())
+                .ok_or(refusal)?,
+            Err(refusal) => return Err(refusal),
         };
         let Some((unbloomed, bloom)) = unbloom(scan, &calibration) else {
             return Ok((None, calibration, None));
