@@ -135,17 +135,7 @@ pub fn hide_bloom_above(vol: &Volume, level: f64) -> Option<Volume> {
     if bright.len() < MIN_METAL_VOXELS || !top.is_finite() {
         return None;
     }
-    let [nx, ny, _] = vol.dims;
-    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
-    for &m in &bright {
-        let p = [m % nx, (m / nx) % ny, m / (nx * ny)];
-        for c in 0..3 {
-            lo[c] = lo[c].min(p[c]);
-            hi[c] = hi[c].max(p[c]);
-        }
-    }
-    let pad = 1 + (HIDDEN_MM / vol.min_spacing()).ceil() as usize;
-    let region = IndexBox { min: lo.map(|v| v.saturating_sub(pad)), max: [0, 1, 2].map(|c| (hi[c] + pad + 1).min(vol.dims[c])) };
+    let region = padded_box(vol, &bright, 1 + (HIDDEN_MM / vol.min_spacing()).ceil() as usize);
     let part = crop(vol, &region).ok()?;
     let is_bright: Vec<bool> = part.values.par_iter().map(|&v| f64::from(v) >= level).collect();
     let distance = distance_mm(part.dims, part.spacing, &is_bright);
@@ -170,17 +160,7 @@ pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> 
     }
     let ceiling = saturation(vol, &metal).map(|s| s.grey);
     // The metal's box, with room for the reach and the lines beyond it.
-    let [nx, ny, _] = vol.dims;
-    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
-    for &m in &metal {
-        let p = [m % nx, (m / nx) % ny, m / (nx * ny)];
-        for c in 0..3 {
-            lo[c] = lo[c].min(p[c]);
-            hi[c] = hi[c].max(p[c]);
-        }
-    }
-    let pad = 2 + ((MAX_REACH_MM + FAR_MM.1) / vol.min_spacing()).ceil() as usize;
-    let region = IndexBox { min: lo.map(|v| v.saturating_sub(pad)), max: [0, 1, 2].map(|c| (hi[c] + pad + 1).min(vol.dims[c])) };
+    let region = padded_box(vol, &metal, 2 + ((MAX_REACH_MM + FAR_MM.1) / vol.min_spacing()).ceil() as usize);
     let part = crop(vol, &region).ok()?;
     let d = part.dims;
 
@@ -510,6 +490,20 @@ fn crown_widths(part: &Volume, cal: &Calibration, is_metal: &[bool], step: f64) 
             (line.spread < 0.1 * (enamel - line.tissue)).then(|| (line.s25 - line.s75) / 1.349)
         })
         .collect()
+}
+
+/// The box of `voxels` (indices into `vol`) grown by `pad` voxels each way, within the scan.
+fn padded_box(vol: &Volume, voxels: &[usize], pad: usize) -> IndexBox {
+    let [nx, ny, _] = vol.dims;
+    let (mut lo, mut hi) = ([usize::MAX; 3], [0usize; 3]);
+    for &m in voxels {
+        let p = [m % nx, (m / nx) % ny, m / (nx * ny)];
+        for c in 0..3 {
+            lo[c] = lo[c].min(p[c]);
+            hi[c] = hi[c].max(p[c]);
+        }
+    }
+    IndexBox { min: lo.map(|v| v.saturating_sub(pad)), max: [0, 1, 2].map(|c| (hi[c] + pad + 1).min(vol.dims[c])) }
 }
 
 fn ijk(l: usize, d: [usize; 3]) -> [f64; 3] {
