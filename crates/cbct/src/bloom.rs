@@ -88,9 +88,15 @@ fn metal_voxels(vol: &Volume, cal: &Calibration) -> Vec<usize> {
     (0..vol.values.len()).into_par_iter().filter(|&m| classifier.classify(f64::from(vol.values[m])) == Label::Metal).collect()
 }
 
+/// The least grey that counts as the scan's maximum `top` (a clipped voxel), allowing for the
+/// rounding of a stored ceiling.
+pub(crate) fn clipped_from(top: f32) -> f32 {
+    top - 1e-5 * top.abs().max(1.0)
+}
+
 fn saturation(vol: &Volume, metal: &[usize]) -> Option<SaturatedMetal> {
     let top = metal.iter().map(|&m| vol.values[m]).fold(f32::NEG_INFINITY, f32::max);
-    let ceiling = top - 1e-5 * top.abs().max(1.0);
+    let ceiling = clipped_from(top);
     let voxels = metal.iter().filter(|&&m| vol.values[m] >= ceiling).count();
     (voxels >= MIN_METAL_VOXELS).then(|| SaturatedMetal { grey: f64::from(top), voxels })
 }
@@ -110,7 +116,7 @@ pub fn bloom_levels(vol: &Volume) -> Vec<f64> {
     if !top.is_finite() {
         return Vec::new();
     }
-    let ceiling = top - 1e-5 * top.abs().max(1.0);
+    let ceiling = clipped_from(top);
     let mut levels = Vec::new();
     if vol.values.par_iter().filter(|&&v| v >= ceiling).count() >= MIN_METAL_VOXELS {
         levels.push(f64::from(ceiling));
@@ -185,7 +191,7 @@ pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> 
                 return None;
             }
             match ceiling {
-                Some(c) if grey >= c - 1e-5 * c.abs().max(1.0) => Some(Core::Clipped(c)),
+                Some(c) if grey >= f64::from(clipped_from(c as f32)) => Some(Core::Clipped(c)),
                 _ => (classifier.classify(0.5 * (grey + enamel)) == Label::Metal).then_some(Core::Measured(grey)),
             }
         })

@@ -377,7 +377,7 @@ fn clean_metal(g: &Grid, vol: &Volume, labels: &mut [u8]) {
     let bn = bx.g.n();
     let class = bx.gather(labels);
     let vals = bx.gather(&vol.values);
-    let ceiling = top - 1e-5 * top.abs().max(1.0);
+    let ceiling = crate::bloom::clipped_from(top);
     let clipped = vals.iter().zip(&class).filter(|(v, l)| **l == metal && **v >= ceiling).count() >= 27;
     let mask: Vec<bool> = (0..bn).map(|l| class[l] == metal && (!clipped || vals[l] >= ceiling)).collect();
     let core: Vec<bool> = distance_mm(bx.g.d, vol.spacing, &mask.iter().map(|&b| !b).collect::<Vec<bool>>()).into_iter().map(|d| f64::from(d) > r).collect();
