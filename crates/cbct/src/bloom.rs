@@ -137,20 +137,41 @@ pub fn bloom_levels(vol: &Volume) -> Vec<f64> {
 /// [`MIN_METAL_VOXELS`] voxels reach it.
 pub fn hide_bloom_above(vol: &Volume, level: f64) -> Option<Volume> {
     let top = vol.values.par_iter().copied().reduce(|| f32::NEG_INFINITY, f32::max);
-    let bright: Vec<usize> = (0..vol.values.len()).into_par_iter().filter(|&m| f64::from(vol.values[m]) >= level).collect();
-    if bright.len() < MIN_METAL_VOXELS || !top.is_finite() {
+    let bright = |m: usize| f64::from(vol.values[m]) >= level;
+    if !top.is_finite() || (0..vol.values.len()).into_par_iter().filter(|&m| bright(m)).count() < MIN_METAL_VOXELS {
         return None;
     }
-    let region = padded_box(vol, &bright, 1 + (HIDDEN_MM / vol.min_spacing()).ceil() as usize);
-    let part = crop(vol, &region).ok()?;
-    let is_bright: Vec<bool> = part.values.par_iter().map(|&v| f64::from(v) >= level).collect();
-    let distance = distance_mm(part.dims, part.spacing, &is_bright);
+    // A voxel's nearest bright voxel has a face neighbour that is not (one step toward the
+    // voxel), so a ball stamped about each such edge voxel covers the reach: no copy of the
+    // scan's box and no distance map (a refused 300³ scan of noise peaked at 0.9 GB with them).
+    let edge: Vec<usize> = (0..vol.values.len())
+        .into_par_iter()
+        .filter(|&m| bright(m) && face_neighbours(m, vol.dims).into_iter().any(|q| q.is_some_and(|q| !bright(q))))
+        .collect();
+    let s = vol.spacing;
+    let r = s.map(|a| (HIDDEN_MM / a).floor() as i64);
+    let mut ball = Vec::new();
+    for k in -r[2]..=r[2] {
+        for j in -r[1]..=r[1] {
+            for i in -r[0]..=r[0] {
+                let d2 = (i as f64 * s[0]).powi(2) + (j as f64 * s[1]).powi(2) + (k as f64 * s[2]).powi(2);
+                if d2.sqrt() as f32 <= HIDDEN_MM as f32 {
+                    ball.push([i, j, k]);
+                }
+            }
+        }
+    }
     let mut out = vol.clone();
-    let d = part.dims;
-    for (l, _) in distance.iter().enumerate().filter(|(_, &v)| f64::from(v) <= HIDDEN_MM) {
-        let [i, j, k] = [l % d[0], (l / d[0]) % d[1], l / (d[0] * d[1])];
-        let n = out.index(i + region.min[0], j + region.min[1], k + region.min[2]);
-        out.values[n] = top;
+    out.values.par_iter_mut().filter(|v| f64::from(**v) >= level).for_each(|v| *v = top);
+    let d = vol.dims.map(|v| v as i64);
+    for &m in &edge {
+        let p = [(m % vol.dims[0]) as i64, ((m / vol.dims[0]) % vol.dims[1]) as i64, (m / (vol.dims[0] * vol.dims[1])) as i64];
+        for o in &ball {
+            let q = [p[0] + o[0], p[1] + o[1], p[2] + o[2]];
+            if (0..3).all(|c| q[c] >= 0 && q[c] < d[c]) {
+                out.values[(q[0] + d[0] * (q[1] + d[1] * q[2])) as usize] = top;
+            }
+        }
     }
     Some(out)
 }
