@@ -16,6 +16,7 @@ use serde::Serialize;
 
 use crate::error::{invalid, stopped, Error, Result};
 use crate::tissues::field;
+use crate::tissues::ligament::Ligament;
 use crate::tissues::model::TissueModel;
 use crate::tissues::table::TissueTable;
 use crate::tissues::warnings::{canal_shortfall, canal_warning, pulp_fit_warning, pulp_warning, saturated_metal_warning, MIN_PULP_SHARE, SATURATED_METAL_REACH_MM};
@@ -83,6 +84,11 @@ pub struct ScanReport {
     /// bone). Absent where the scan shows too little of the profile (then nothing is moved).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub edge_blur_mm: Option<f64>,
+    /// The periodontal ligament's width (mm) the roots' edge profile into bone shows
+    /// ([`Ligament::fit`]): the roots' border is read through the bone's blur beyond it.
+    /// Absent without bone beside the roots, with roots fused to it, or too little profile.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub ligament_mm: Option<f64>,
     /// An unclipped metal restoration's bloom, measured and taken off the scan before
     /// segmentation ([`dentsim_cbct::bloom`]). Absent without one.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -313,7 +319,7 @@ impl TissuesFromScan {
         let source = format!("{} {}", scan.source.format, scan.source.path);
         let mut model = TissueModel::new(source, Some(self.fdi));
         let mut tissues = Vec::new();
-        let mut builder = NestedBuilder { scan: &tooth_scan, labels: &tooth_labels, calibration: &calibration, voxel_size_mm: self.voxel_size_mm, fits: Vec::new(), edge_blur_mm: None, roots_fused: false };
+        let mut builder = NestedBuilder { scan: &tooth_scan, labels: &tooth_labels, calibration: &calibration, voxel_size_mm: self.voxel_size_mm, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread };
         let mut built = 0.0;
         let grids = builder.build(&mut |name| {
             built += 1.0;
@@ -352,6 +358,10 @@ impl TissuesFromScan {
             rim_voxels_peeled: rim,
             canal_voxels_traced: canal_voxels,
             edge_blur_mm: builder.edge_blur_mm,
+            ligament_mm: match builder.roots {
+                RootBorder::Ligament(ligament) => Some(ligament.width_mm),
+                _ => None,
+            },
             metal_bloom,
             warnings: scan_warnings(&tissues, &calibration, canal_warning, metal_warning, tooth_scan.min_spacing()),
             calibration,
@@ -548,6 +558,9 @@ fn root_ligament_seen(profile: &[Option<f64>], g_soft: f64) -> Option<bool> {
 
 /// See [`root_ligament_seen`]: between a fused root's and a 0.2 mm ligament's dip.
 const LIGAMENT_DIP: f64 = 0.05;
+/// The roots' profile is fitted from this far inside to this far outside (voxels): further out
+/// it reaches other roots and the jaw's cortex.
+const LIGAMENT_FIT_VOXELS: (f64, f64) = (2.0, 3.0);
 
 /// The outer surface's edge profile ([`NestedBuilder::edge_profiles`]) is read this
 /// far (the scan's finest voxels) on each side, in bins this wide, each from at least this many
@@ -586,8 +599,19 @@ struct SeenUnderTheOutside {
 struct EdgeProfiles {
     /// The enamel under the outside's grey, where the crown's profile is read.
     seen: Option<SeenUnderTheOutside>,
-    /// The roots' profile into bone shows no ligament ([`root_ligament_seen`]).
-    roots_fused: bool,
+    /// What the roots' profile into bone shows.
+    roots: RootBorder,
+}
+
+/// What a root's border in bone is, as the roots' edge profile shows it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum RootBorder {
+    /// Not read: no bone beside the roots, or too little of the profile.
+    Unread,
+    /// No ligament ([`root_ligament_seen`]): a root's partner in bone is the bone.
+    Fused,
+    /// A ligament of this width, then bone: a voxel by the root holds the bone's blur too.
+    Ligament(Ligament),
 }
 
 struct NestedBuilder<'a> {
@@ -599,9 +623,8 @@ struct NestedBuilder<'a> {
     fits: Vec<(Label, VolumeFit)>,
     /// The scan's blur the outer surface's edge profile showed, once built.
     edge_blur_mm: Option<f64>,
-    /// The roots are fused to their bone: their edge profile shows no ligament (see
-    /// [`root_ligament_seen`]), so a root's partner in bone is the bone, not soft tissue.
-    roots_fused: bool,
+    /// The roots' border in bone, once the edge profile is read.
+    roots: RootBorder,
 }
 
 #[derive(Clone, Debug)]
@@ -712,9 +735,9 @@ impl NestedBuilder<'_> {
     /// from the edge profile) and by [`GREY_BLUR_VOXELS`], together about σ²·H inside the true
     /// surface (H the mean curvature). The volume that takes is ∫σ²H dA over the trilinear
     /// surface (the family's teeth in air, wax and water: dentins −0.5…−3.2 % → −1.5…+0.8 %).
-    /// Not beside bone: there the bone's blur brightens the root's edge across the thin
-    /// ligament, which moves the contour out by about as much (the family's teeth in the jaw,
-    /// their roots corrected too in a trial: dentins up to +3.2 %; left alone −1.2…+1.6 %).
+    /// Not beside bone: a root behind its ligament is read as if it lay its own σ²·H further
+    /// out ([`Ligament::shift_mm`]; one offset for the whole surface moved the crown out with
+    /// the roots' curvature), and a fused root's bone brightens its edge by about as much.
     fn settle(&self, grid: &mut LevelSet, trilinear: &Trilinear, seen: Option<&SeenUnderTheOutside>) -> Result<()> {
         let blurred = seen.map_or(0.0, |seen| self.blur_shrink(&trilinear.surface, seen));
         self.keep_volume(trilinear.volume + blurred, trilinear.surface.area(), grid)
@@ -724,15 +747,36 @@ impl NestedBuilder<'_> {
     /// ([`Self::settle`]); nothing where the profile showed no blur.
     fn blur_shrink(&self, surface: &TriMesh, seen: &SeenUnderTheOutside) -> f64 {
         let Some(sigma) = seen.edge_blur_mm else { return 0.0 };
-        let grey = self.scan.spacing.iter().map(|s| (GREY_BLUR_VOXELS * s).powi(2)).sum::<f64>() / 3.0;
+        let clear = |p: glam::DVec3| self.voxel_at(p).is_none_or(|n| !seen.beside_bone[n]);
+        (sigma * sigma + self.grey_blur_variance()) * surface.total_mean_curvature_where(clear)
+    }
+
+    /// The variance (mm²) of the blur [`GREY_BLUR_VOXELS`] gives the field placed by grey.
+    fn grey_blur_variance(&self) -> f64 {
+        self.scan.spacing.iter().map(|s| (GREY_BLUR_VOXELS * s).powi(2)).sum::<f64>() / 3.0
+    }
+
+    /// The scan voxel holding point `p` (mm), if any.
+    fn voxel_at(&self, p: glam::DVec3) -> Option<usize> {
         let [nx, ny, nz] = self.scan.dims;
-        let clear = |p: glam::DVec3| {
-            let Some(ijk) = self.scan.world_to_index(p.to_array()) else { return true };
-            let [i, j, k] = ijk.map(f64::round);
-            let outside = i < 0.0 || j < 0.0 || k < 0.0 || i >= nx as f64 || j >= ny as f64 || k >= nz as f64;
-            outside || !seen.beside_bone[self.scan.index(i as usize, j as usize, k as usize)]
-        };
-        (sigma * sigma + grey) * surface.total_mean_curvature_where(clear)
+        let [i, j, k] = self.scan.world_to_index(p.to_array())?.map(f64::round);
+        let inside = i >= 0.0 && j >= 0.0 && k >= 0.0 && i < nx as f64 && j < ny as f64 && k < nz as f64;
+        inside.then(|| self.scan.index(i as usize, j as usize, k as usize))
+    }
+
+    /// The mean curvature (1/mm) of `surface` over its triangles whose middle lies in a scan
+    /// voxel `keep` admits (0 for none).
+    fn mean_curvature_where(&self, surface: &TriMesh, keep: impl Fn(usize) -> bool) -> f64 {
+        let kept = |p: glam::DVec3| self.voxel_at(p).is_some_and(&keep);
+        let area: f64 = surface
+            .triangles
+            .iter()
+            .filter_map(|t| {
+                let [a, b, c] = t.map(|i| surface.points[i as usize].as_dvec3());
+                kept((a + b + c) / 3.0).then(|| 0.5 * (b - a).cross(c - a).length())
+            })
+            .sum();
+        if area > 0.0 { surface.total_mean_curvature_where(kept) / area } else { 0.0 }
     }
 
     /// Moves `grid`'s surface (of about `area` mm²) along its normals to enclose `target` mm³,
@@ -842,7 +886,7 @@ impl NestedBuilder<'_> {
                 // A fused root beside bone: the bone's grey there (the low end of it, as
                 // segmentation reads a root's partner).
                 let bone = |code: u8| code == Label::BoneCancellous as u8 || code == Label::BoneCortical as u8;
-                let root_beside_bone = |code: u8, hard: u8| self.roots_fused && bone(code) && hard == Label::Dentin as u8;
+                let root_beside_bone = |code: u8, hard: u8| self.roots == RootBorder::Fused && bone(code) && hard == Label::Dentin as u8;
                 let grey_across = |code: u8, hard: u8| -> Option<f64> {
                     if root_beside_bone(code, hard) {
                         let clear = |m: usize| !inside[m] && !by_inside[m] && labels[m] <= Label::BoneCortical as u8;
@@ -851,6 +895,22 @@ impl NestedBuilder<'_> {
                     }
                     if outside(code) { outside_grey(n) } else { grey_of(code) }
                 };
+                // A root behind its ligament: the voxel's grey mixes the root's, the ligament's
+                // and the blur of the bone beyond ([`Ligament::root_share`]), the bone's grey
+                // read about the voxel as the outside is.
+                if let (RootBorder::Ligament(ligament), true) = (self.roots, (labels[n] == Label::Dentin as u8 && outside(partner)) || (partner == Label::Dentin as u8 && outside(labels[n]))) {
+                    let soft = cal.peak(Label::SoftTissue);
+                    if outside_grey(n) == Some(soft) {
+                        let clear = |m: usize| !inside[m] && !by_inside[m] && labels[m] <= Label::BoneCortical as u8;
+                        let mut greys = outside_greys(self.scan, n, clear);
+                        if !greys.is_empty() {
+                            let k = greys.len() / 2;
+                            let bone = f64::from(*greys.select_nth_unstable_by(k, f32::total_cmp).1);
+                            let f = ligament.root_share(f64::from(values[n]), soft, cal.peak(Label::Dentin), bone) as f32;
+                            return Some((n, if inside[n] { f.clamp(0.5 + SIDE, 1.0) } else { f.clamp(0.0, 0.5 - SIDE) }));
+                        }
+                    }
+                }
                 let own = grey_across(labels[n], partner)?;
                 let other = grey_across(partner, labels[n])?;
                 let (g_in, g_out) = if inside[n] { (own, other) } else { (other, own) };
@@ -882,7 +942,7 @@ impl NestedBuilder<'_> {
     /// where bone is near; none when the scan shows too little of the profile. Also whether the
     /// roots' profile into bone shows a ligament ([`root_ligament_seen`]), the crown's read or not.
     fn edge_profiles(&self, tooth_field: &[f32]) -> Result<EdgeProfiles> {
-        let none = EdgeProfiles { seen: None, roots_fused: false };
+        let none = EdgeProfiles { seen: None, roots: RootBorder::Unread };
         let dims = self.scan.dims;
         let [nx, ny, _] = dims;
         let labels = &self.labels.labels;
@@ -1004,7 +1064,29 @@ impl NestedBuilder<'_> {
             }
             binned_medians(&mut samples)
         };
-        let roots_fused = root_ligament_seen(&root_profile, g_soft) == Some(false);
+        let roots = match root_ligament_seen(&root_profile, g_soft) {
+            Some(false) => RootBorder::Fused,
+            Some(true) => {
+                let samples: Vec<(f64, f64)> = root_profile
+                    .iter()
+                    .enumerate()
+                    .filter_map(|(b, g)| Some((((b as f64 + 0.5) * PROFILE_BIN_VOXELS - PROFILE_VOXELS) * h, (*g)?)))
+                    .filter(|&(d, _)| d > -LIGAMENT_FIT_VOXELS.0 * h && d < LIGAMENT_FIT_VOXELS.1 * h)
+                    .collect();
+                match Ligament::fit(&samples, g_soft, g_de, h) {
+                    Some(ligament) => {
+                        // The blurs take σ²·H from a curved root (see `settle`), the scan's
+                        // across the root (the fit's) and the field's own: read over the roots
+                        // beside bone, where the profile was read, as their mean.
+                        let root = |n: usize| beside_bone[n] && by_dentin[n] && !by_enamel[n] && !by_other[n];
+                        let mean_curvature = self.mean_curvature_where(&crate::tissues::surface::surface(&surface)?, root);
+                        RootBorder::Ligament(Ligament { shift_mm: (ligament.blur_mm.powi(2) + self.grey_blur_variance()) * mean_curvature, ..ligament })
+                    }
+                    None => RootBorder::Unread,
+                }
+            }
+            None => RootBorder::Unread,
+        };
         let by_other: Vec<bool> = by_other.iter().zip(&beside_bone).map(|(a, b)| *a || *b).collect();
         let outside_grey = |n: usize| -> Option<(f64, bool)> {
             let s = source[n];
@@ -1037,7 +1119,7 @@ impl NestedBuilder<'_> {
             }
         }
         if profile[..bins / 2].iter().any(Option::is_none) {
-            return Ok(EdgeProfiles { seen: None, roots_fused });
+            return Ok(EdgeProfiles { seen: None, roots });
         }
         let mut last = 0.0f64;
         for p in profile.iter_mut().rev().flatten() {
@@ -1087,7 +1169,7 @@ impl NestedBuilder<'_> {
                 }
             }
         }
-        Ok(EdgeProfiles { seen: Some(SeenUnderTheOutside { labels: seen, dentin_share: dentin, edge_blur_mm, beside_bone }), roots_fused })
+        Ok(EdgeProfiles { seen: Some(SeenUnderTheOutside { labels: seen, dentin_share: dentin, edge_blur_mm, beside_bone }), roots })
     }
 
     /// Moves `grid`'s surface along its normals until it encloses the tissue's partial-volume
@@ -1188,28 +1270,40 @@ impl NestedBuilder<'_> {
             },
             || {
                 let Some((field, inside, codes)) = this.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) else {
-                    return (this.union(&[Dentin, Pulp, Caries], None).map(|core| (core, None, false)), Ok(None));
+                    return (this.union(&[Dentin, Pulp, Caries], None).map(|core| (core, None, RootBorder::Unread)), Ok(None));
                 };
                 // The core from labels that see the enamel under the outside's grey (the
                 // tooth's field tells how far the outside's grey reaches each voxel).
+                let EdgeProfiles { seen, roots } = match this.edge_profiles(&field) {
+                    Ok(profiles) => profiles,
+                    Err(e) => return (Err(e), Ok(None)),
+                };
+                let this = &NestedBuilder { fits: Vec::new(), roots, ..*this };
                 rayon::join(
-                    || -> Result<(Option<LevelSet>, Option<SeenUnderTheOutside>, bool)> {
-                        let EdgeProfiles { seen, roots_fused } = this.edge_profiles(&field)?;
-                        let this = &NestedBuilder { fits: Vec::new(), roots_fused, ..*this };
+                    || -> Result<(Option<LevelSet>, Option<SeenUnderTheOutside>, RootBorder)> {
                         let Some(seen) = seen else {
-                            return Ok((this.union(&[Dentin, Pulp, Caries], None)?, None, roots_fused));
+                            return Ok((this.union(&[Dentin, Pulp, Caries], None)?, None, roots));
                         };
                         let with_seen = NestedBuilder { labels: &seen.labels, fits: Vec::new(), ..*this };
                         let Some((field, inside, codes)) = with_seen.union_field(&[Dentin, Pulp, Caries], None, Some(&seen.dentin_share)) else {
-                            return Ok((None, Some(seen), roots_fused));
+                            return Ok((None, Some(seen), roots));
                         };
                         let (mut core, trilinear) = with_seen.union_grid_unsettled(&field, &inside, &codes)?;
                         if let Some(trilinear) = trilinear {
                             this.settle(&mut core, &trilinear, Some(&seen))?;
                         }
-                        Ok((Some(core), Some(seen), roots_fused))
+                        Ok((Some(core), Some(seen), roots))
                     },
-                    || this.union_grid_unsettled(&field, &inside, &codes).map(Some),
+                    // The tooth's field was placed by grey before its edge profile was read:
+                    // roots fused to their bone take the bone as their partner, and roots behind
+                    // a ligament are read through the bone's blur, so it is placed again.
+                    || match roots {
+                        RootBorder::Unread => this.union_grid_unsettled(&field, &inside, &codes).map(Some),
+                        _ => match this.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) {
+                            Some((field, inside, codes)) => this.union_grid_unsettled(&field, &inside, &codes).map(Some),
+                            None => Ok(None),
+                        },
+                    },
                 )
             },
         );
@@ -1218,20 +1312,11 @@ impl NestedBuilder<'_> {
             self.fits.push((Pulp, fit));
         }
         step("dentin")?;
-        let (core, seen, roots_fused) = core?;
+        let (core, seen, roots) = core?;
         step("enamel")?;
         self.edge_blur_mm = seen.as_ref().and_then(|seen| seen.edge_blur_mm);
-        // The tooth's field was placed by grey before its edge profile was read: roots fused to
-        // their bone take the bone as their partner, so their outer surface is placed again.
-        let mut tooth = tooth?;
-        if roots_fused {
-            self.roots_fused = true;
-            tooth = match self.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) {
-                Some((field, inside, codes)) => Some(self.union_grid_unsettled(&field, &inside, &codes)?),
-                None => None,
-            };
-        }
-        let tooth = match tooth {
+        self.roots = roots;
+        let tooth = match tooth? {
             Some((mut tooth, Some(trilinear))) => {
                 self.settle(&mut tooth, &trilinear, seen.as_ref())?;
                 Some(tooth)
@@ -1653,7 +1738,7 @@ mod tests {
     #[test]
     fn the_pulp_placed_by_grey_has_its_normals_and_keeps_its_canal() {
         let (scan, labels, calibration, truth) = pulp_scan();
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots_fused: false };
+        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread };
         let measure = enclosed_volume(&scan, &labels, Label::Pulp, Label::Dentin, &calibration).unwrap();
         let by_labels = builder.union(&[Label::Pulp], None).unwrap().unwrap();
         let mut by_grey = builder.pulp(Some(measure.tissue_grey)).unwrap().unwrap();
@@ -1822,7 +1907,7 @@ mod tests {
         // As the pipeline: peeled, then the dentin's specks (the blurred enamel's rim) given to the enamel.
         peel_blurred_rim(&scan, &mut labels, &calibration);
         keep_largest_component(&mut labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots_fused: false };
+        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread };
         let (tooth_field, ..) = builder.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap();
         let seen = builder.edge_profiles(&tooth_field).unwrap().seen.expect("the edge profile is read");
         let made = (blur * blur + 1.0 / 12.0).sqrt() * h;
@@ -1892,7 +1977,7 @@ mod tests {
     #[test]
     fn the_core_sees_the_enamel_the_outside_hides() {
         let (scan, labels, calibration) = cap_scan();
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots_fused: false };
+        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread };
         // The true cap's thickness over a point (the tooth's depth plus the core's distance).
         let thickness = |p: DVec3| (TOOTH.1 - p.distance(TOOTH.0)) + (p.distance(CORE.0) - CORE.1);
         let (tooth_field, ..) = builder.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap();

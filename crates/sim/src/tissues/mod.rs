@@ -5,6 +5,7 @@ pub mod capsule;
 pub mod export;
 pub mod field;
 pub mod from_scan;
+pub mod ligament;
 pub mod model;
 pub mod surface;
 pub mod table;

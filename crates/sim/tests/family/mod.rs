@@ -30,6 +30,8 @@ pub struct CaseResult {
     pub pulp: Option<(f64, f64, f64, f64)>,
     /// The scan's blur segmentation read from the tooth's edge profile (σ, mm).
     pub edge_blur_mm: Option<f64>,
+    /// The periodontal ligament's width segmentation read from the roots' profile (mm).
+    pub ligament_mm: Option<f64>,
 }
 
 /// The goals: enamel and dentin volume within 2 %, pulp within 5 %, mean surface
@@ -59,7 +61,7 @@ pub fn run(case: &FamilyCase, voxel_mm: f64) -> Result<CaseResult, String> {
         let measure = t.partial_volume.as_ref().map_or(f64::NAN, |m| m.volume_mm3);
         (truth[Label::Pulp as usize], t.scan_voxels as f64 * voxel_mm3, measure, t.surface_offset_mm)
     });
-    Ok(CaseResult { name: case.name.clone(), tissues, confidence: report.calibration.confidence, seconds: start.elapsed().as_secs_f64(), pulp, edge_blur_mm: report.edge_blur_mm })
+    Ok(CaseResult { name: case.name.clone(), tissues, confidence: report.calibration.confidence, seconds: start.elapsed().as_secs_f64(), pulp, edge_blur_mm: report.edge_blur_mm, ligament_mm: report.ligament_mm })
 }
 
 pub fn print(r: &CaseResult) {
