@@ -446,8 +446,9 @@ impl EdgeLine {
     }
 }
 
-/// Φ, the standard normal's distribution function.
-fn phi(z: f64) -> f64 {
+/// Φ, the standard normal's distribution function: a blurred step's profile (the bloom's tail
+/// here, a root's border behind its ligament in `dentsim_sim`).
+pub fn phi(z: f64) -> f64 {
     0.5 * libm::erfc(-z / std::f64::consts::SQRT_2)
 }
 

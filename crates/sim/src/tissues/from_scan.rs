@@ -470,7 +470,11 @@ const FLOW_MM2: f64 = 0.016;
 /// admits (not the tooth, nor the outside its blur brightens); a step is a voxel, or 0.2 mm on a
 /// finer grid ([`Calibration::outside_steps`]).
 fn outside_about(scan: &Volume, cal: &Calibration, centre: usize, clear: impl Fn(usize) -> bool) -> Option<Label> {
-    let mut grey = outside_greys(scan, centre, clear);
+    outside_of_greys(cal, &mut outside_greys(scan, centre, clear))
+}
+
+/// [`outside_about`] from the outside voxels' greys (reordered).
+fn outside_of_greys(cal: &Calibration, grey: &mut [f32]) -> Option<Label> {
     // A tooth alone (no bone) has only the outside the calibration found; in a jaw, soft tissue
     // may have been matched to another class's name, and both stay. (Per voxel: no allocation.)
     let among: &[Label] = match (cal.shows(Label::Air), cal.shows(Label::SoftTissue), cal.shows_bone()) {
@@ -478,7 +482,7 @@ fn outside_about(scan: &Volume, cal: &Calibration, centre: usize, clear: impl Fn
         (false, true, false) => &[Label::SoftTissue],
         _ => &[Label::Air, Label::SoftTissue],
     };
-    cal.outside_of(&mut grey, among)
+    cal.outside_of(grey, among)
 }
 
 /// The grey of the voxels `clear` admits on the 5³ lattice about voxel `centre` whose step is
@@ -863,25 +867,24 @@ impl NestedBuilder<'_> {
                 .collect();
             partners = next;
         }
+        // Outside the tooth, which tissue is there is read as segmentation reads it
+        // (`Calibration::outside_of`): from the grey of the outside voxels within 2 voxels, air
+        // or soft tissue (a class label there may be partial volume of the tooth's edge). Not
+        // those next to the inside: the scanner's blur brightens them with the tooth's grey
+        // (molar phantom, point spread 0.2 mm: the crown's air read as soft tissue, its surface
+        // 0.026 mm inside, the tooth 9 mm³ small).
+        let clear = |m: usize| !inside[m] && !by_inside[m] && labels[m] <= Label::BoneCortical as u8;
         let updates: Vec<(usize, f32)> = (0..field.len())
             .into_par_iter()
             .filter_map(|n| {
                 let partner = Some(partners[n]).filter(|&p| p != NONE)?;
-                // Outside the tooth, which tissue is there is read as segmentation reads it
-                // (`Calibration::outside_of`): from the grey of the outside voxels within 2
-                // voxels, air or soft tissue (a class label there may be partial volume of the
-                // tooth's edge). Not those next to the inside: the scanner's blur brightens them
-                // with the tooth's grey (molar phantom, point spread 0.2 mm: the crown's air read
-                // as soft tissue, its surface 0.026 mm inside, the tooth 9 mm³ small).
-                let outside_grey = |centre: usize| -> Option<f64> {
-                    let clear = |m: usize| !inside[m] && !by_inside[m] && labels[m] <= Label::BoneCortical as u8;
-                    outside_about(self.scan, cal, centre, clear).map(|l| cal.peak(l))
-                };
+                let outside_grey = |centre: usize| -> Option<f64> { outside_about(self.scan, cal, centre, clear).map(|l| cal.peak(l)) };
                 let outside = |code: u8| code <= Label::BoneCortical as u8;
                 let hard = |code: u8| code == Label::Enamel as u8 || code == Label::Dentin as u8;
+                let on_its_side = |f: f32| if inside[n] { f.clamp(0.5 + SIDE, 1.0) } else { f.clamp(0.0, 0.5 - SIDE) };
                 if let Some(share) = dentin_share.map(|s| s[n]).filter(|s| !s.is_nan() && hard(labels[n]) && hard(partner)) {
                     // Inside is the dentin (the core's union).
-                    return Some((n, if inside[n] { share.clamp(0.5 + SIDE, 1.0) } else { share.clamp(0.0, 0.5 - SIDE) }));
+                    return Some((n, on_its_side(share)));
                 }
                 // A fused root beside bone: the bone's grey there (the low end of it, as
                 // segmentation reads a root's partner).
@@ -889,7 +892,6 @@ impl NestedBuilder<'_> {
                 let root_beside_bone = |code: u8, hard: u8| self.roots == RootBorder::Fused && bone(code) && hard == Label::Dentin as u8;
                 let grey_across = |code: u8, hard: u8| -> Option<f64> {
                     if root_beside_bone(code, hard) {
-                        let clear = |m: usize| !inside[m] && !by_inside[m] && labels[m] <= Label::BoneCortical as u8;
                         let mut greys = outside_greys(self.scan, n, clear);
                         return Some(cal.root_partner(&mut greys, Label::from_u8(code)?));
                     }
@@ -897,18 +899,14 @@ impl NestedBuilder<'_> {
                 };
                 // A root behind its ligament: the voxel's grey mixes the root's, the ligament's
                 // and the blur of the bone beyond ([`Ligament::root_share`]), the bone's grey
-                // read about the voxel as the outside is.
+                // the median of the outside about the voxel where that reads soft tissue.
                 if let (RootBorder::Ligament(ligament), true) = (self.roots, (labels[n] == Label::Dentin as u8 && outside(partner)) || (partner == Label::Dentin as u8 && outside(labels[n]))) {
-                    let soft = cal.peak(Label::SoftTissue);
-                    if outside_grey(n) == Some(soft) {
-                        let clear = |m: usize| !inside[m] && !by_inside[m] && labels[m] <= Label::BoneCortical as u8;
-                        let mut greys = outside_greys(self.scan, n, clear);
-                        if !greys.is_empty() {
-                            let k = greys.len() / 2;
-                            let bone = f64::from(*greys.select_nth_unstable_by(k, f32::total_cmp).1);
-                            let f = ligament.root_share(f64::from(values[n]), soft, cal.peak(Label::Dentin), bone) as f32;
-                            return Some((n, if inside[n] { f.clamp(0.5 + SIDE, 1.0) } else { f.clamp(0.0, 0.5 - SIDE) }));
-                        }
+                    let mut greys = outside_greys(self.scan, n, clear);
+                    if outside_of_greys(cal, &mut greys) == Some(Label::SoftTissue) {
+                        let k = greys.len() / 2;
+                        let bone = f64::from(*greys.select_nth_unstable_by(k, f32::total_cmp).1);
+                        let f = ligament.root_share(f64::from(values[n]), cal.peak(Label::SoftTissue), cal.peak(Label::Dentin), bone) as f32;
+                        return Some((n, on_its_side(f)));
                     }
                 }
                 let own = grey_across(labels[n], partner)?;
@@ -918,7 +916,7 @@ impl NestedBuilder<'_> {
                     return None;
                 }
                 let f = ((f64::from(values[n]) - g_out) / (g_in - g_out)) as f32;
-                Some((n, if inside[n] { f.clamp(0.5 + SIDE, 1.0) } else { f.clamp(0.0, 0.5 - SIDE) }))
+                Some((n, on_its_side(f)))
             })
             .collect();
         for (n, f) in updates {

@@ -4,6 +4,8 @@
 //! soft tissue misplaces the surface by more the further out the voxel is: the roots in bone
 //! were the family's dentin's largest normal error beyond the resolution floor.
 
+use dentsim_cbct::bloom::phi;
+
 /// The ligament about the roots, as the roots' edge profile into bone shows it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ligament {
@@ -16,11 +18,6 @@ pub struct Ligament {
     /// How far out (mm) the roots' share is read: what the blurs take from a curved root,
     /// which a profile across a flat border does not know ([`Self::root_share`]).
     pub shift_mm: f64,
-}
-
-/// Φ, the standard normal distribution.
-fn phi(z: f64) -> f64 {
-    0.5 * libm::erfc(-z / std::f64::consts::SQRT_2)
 }
 
 /// The profile's model over the ligament's width `w`, the blur `s` and the offset `delta` of the
