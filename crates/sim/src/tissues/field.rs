@@ -50,6 +50,11 @@ impl GridField<'_> {
         self.trilinear(u).0
     }
 
+    /// The cubic B-spline's value at a continuous index, the values being its coefficients.
+    pub fn spline_at(&self, u: DVec3) -> f64 {
+        self.value(Kernel::CubicBSpline, u)
+    }
+
     /// Value alone at a continuous index under `kernel` (the spline's without its gradient).
     fn value(&self, kernel: Kernel, u: DVec3) -> f64 {
         if kernel == Kernel::Trilinear {

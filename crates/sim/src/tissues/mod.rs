@@ -1,6 +1,7 @@
 //! Tissues: the property table, the model (one narrow-band level set per tissue), the analytic
 //! capsule phantom, tissues from a CBCT scan and what it could not read, their surfaces (the one
 //! mesher) and exports.
+pub mod blur_fit;
 pub mod capsule;
 pub mod export;
 pub mod field;
