@@ -1098,8 +1098,9 @@ impl Phantom {
 }
 
 /// Separable Gaussian blur in voxel units (σ per axis), clamped at the borders. O(n·r) per axis.
+/// Along y and z each row of x is a weighted sum of whole rows (contiguous, no gather).
 pub fn gaussian_blur(v: &mut [f32], dims: [usize; 3], sigma: [f64; 3]) {
-    let [nx, ny, nz] = dims;
+    let [nx, ny, _] = dims;
     for axis in 0..3 {
         if sigma[axis] <= 0.0 || dims[axis] < 2 {
             continue;
@@ -1109,34 +1110,33 @@ pub fn gaussian_blur(v: &mut [f32], dims: [usize; 3], sigma: [f64; 3]) {
         let sum: f32 = w.iter().sum();
         w.iter_mut().for_each(|x| *x /= sum);
         let n = dims[axis] as isize;
-        let (stride, lines): (usize, Vec<usize>) = match axis {
-            0 => (1, (0..ny * nz).map(|l| l * nx).collect()),
-            1 => (nx, (0..nz).flat_map(|k| (0..nx).map(move |i| i + nx * ny * k)).collect()),
-            _ => (nx * ny, (0..nx * ny).collect()),
-        };
-        let src = v.to_vec();
-        let out: Vec<(usize, Vec<f32>)> = lines
-            .par_iter()
-            .map(|&start| {
-                let line: Vec<f32> = (0..n as usize).map(|t| src[start + t * stride]).collect();
-                let res = (0..n)
-                    .map(|t| {
-                        let mut acc = 0.0f32;
-                        for (q, wq) in w.iter().enumerate() {
-                            let u = (t + q as isize - r).clamp(0, n - 1) as usize;
-                            acc += wq * line[u];
-                        }
-                        acc
-                    })
-                    .collect();
-                (start, res)
-            })
-            .collect();
-        for (start, res) in out {
-            for (t, x) in res.into_iter().enumerate() {
-                v[start + t * stride] = x;
-            }
+        if axis == 0 {
+            v.par_chunks_mut(nx).for_each_init(Vec::new, |line: &mut Vec<f32>, row| {
+                line.clear();
+                line.extend_from_slice(row);
+                for (t, out) in row.iter_mut().enumerate() {
+                    let mut acc = 0.0f32;
+                    for (q, wq) in w.iter().enumerate() {
+                        acc += wq * line[(t as isize + q as isize - r).clamp(0, n - 1) as usize];
+                    }
+                    *out = acc;
+                }
+            });
+            continue;
         }
+        let src = v.to_vec();
+        v.par_chunks_mut(nx).enumerate().for_each(|(row_index, row)| {
+            let (y, z) = (row_index % ny, row_index / ny);
+            let at = if axis == 1 { y } else { z } as isize;
+            row.fill(0.0);
+            for (q, wq) in w.iter().enumerate() {
+                let m = (at + q as isize - r).clamp(0, n - 1) as usize;
+                let other = if axis == 1 { m + ny * z } else { y + ny * m };
+                for (out, s) in row.iter_mut().zip(&src[other * nx..(other + 1) * nx]) {
+                    *out += wq * s;
+                }
+            }
+        });
     }
 }
 

@@ -43,9 +43,8 @@ fn every_fast_case_gives_the_tooth_near_its_true_tissues() {
         }
     }
     assert!(failures.is_empty(), "{failures:#?}");
-    // The pulps fitted through the scan's blur (2026-11-29): mean normal error 8.53 → 8.01°
-    // over these cases (three of the eight with a measured pulp grey are fitted), their
-    // surfaces 0.024–0.040 → 0.015–0.037 mm.
+    // The pulps fitted through the scan's blur (2026-11-29): mean normal error 8.53 → 8.03°
+    // over these cases, their surfaces 0.024–0.040 → 0.015–0.034 mm.
     let mean = pulp_normals.iter().sum::<f64>() / pulp_normals.len() as f64;
     println!("pulp normals: mean {mean:.2}° over {} cases", pulp_normals.len());
     assert!(mean <= 8.3, "pulp normals {mean:.2}° on average");

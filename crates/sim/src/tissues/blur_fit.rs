@@ -7,6 +7,7 @@
 //! error). Here the surface is the one whose body, blurred as the scanner blurs and averaged
 //! over each voxel, gives the scan's greys: a level set on a grid finer than the scan's is moved
 //! along its normals by the back-projected residual until the two agree.
+use dentsim_cbct::phantom::gaussian_blur;
 use dentsim_cbct::Volume;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -119,9 +120,9 @@ pub fn fit_through_blur(scan: &Volume, start: &[f32], lo: [usize; 3], hi: [usize
     // The back-projection's widening is done on the scan's grid, the point spread on the fine one.
     let widen = [BACK_PROJECTION_VOXELS; 3];
     let back_project = |coarse: &mut Vec<f32>| -> Vec<f32> {
-        blur(coarse, span, widen);
+        gaussian_blur(coarse, span, widen);
         let mut fine: Vec<f32> = (0..len).into_par_iter().map(|n| coarse[parent(n)]).collect();
-        blur(&mut fine, dims, sigma_cells);
+        gaussian_blur(&mut fine, dims, sigma_cells);
         fine
     };
     let weight = back_project(&mut observed.iter().map(|o| f32::from(u8::from(o.is_some()))).collect());
@@ -136,7 +137,7 @@ pub fn fit_through_blur(scan: &Volume, start: &[f32], lo: [usize; 3], hi: [usize
     for _ in 0..MAX_STEPS {
         // The body's share per fine cell: a flat border through a cell at φ from its centre.
         let mut body: Vec<f32> = phi.par_iter().map(|&p| (0.5 + p / cell_mm as f32).clamp(0.0, 1.0)).collect();
-        blur(&mut body, dims, sigma_cells);
+        gaussian_blur(&mut body, dims, sigma_cells);
         let predicted = voxel_sums(&body, dims, refine, span);
         let back = back_project(&mut observed.iter().zip(&predicted).map(|(o, p)| o.map_or(0.0, |o| o - p / per_voxel)).collect());
         let moved = phi
@@ -203,45 +204,4 @@ fn diffuse(field: &mut [f32], dims: [usize; 3], cell: [f64; 3], amount: f64) {
         }
         *v += change;
     });
-}
-
-/// A Gaussian blur of σ `sigma` cells per axis, the grid's border values continued: as
-/// `dentsim_cbct::phantom::gaussian_blur`, but along y and z each row is a weighted sum of
-/// whole rows (the fit blurs a few million cells twice a step).
-fn blur(values: &mut [f32], dims: [usize; 3], sigma: [f64; 3]) {
-    let [nx, ny, nz] = dims;
-    for axis in 0..3 {
-        if sigma[axis] <= 0.0 || dims[axis] < 2 {
-            continue;
-        }
-        let r = (3.0 * sigma[axis]).ceil() as isize;
-        let mut w: Vec<f32> = (-r..=r).map(|d| (-(d * d) as f64 / (2.0 * sigma[axis] * sigma[axis])).exp() as f32).collect();
-        let sum: f32 = w.iter().sum();
-        w.iter_mut().for_each(|x| *x /= sum);
-        if axis == 0 {
-            values.par_chunks_mut(nx).for_each_init(Vec::new, |line: &mut Vec<f32>, row| {
-                line.clear();
-                line.extend_from_slice(row);
-                for (t, out) in row.iter_mut().enumerate() {
-                    *out = w.iter().enumerate().map(|(q, wq)| wq * line[(t as isize + q as isize - r).clamp(0, nx as isize - 1) as usize]).sum();
-                }
-            });
-            continue;
-        }
-        let src = values.to_vec();
-        let n = dims[axis] as isize;
-        values.par_chunks_mut(nx).enumerate().for_each(|(row_index, row)| {
-            let (y, z) = (row_index % ny, row_index / ny);
-            let at = if axis == 1 { y } else { z } as isize;
-            row.iter_mut().for_each(|v| *v = 0.0);
-            for (q, wq) in w.iter().enumerate() {
-                let m = (at + q as isize - r).clamp(0, n - 1) as usize;
-                let other = if axis == 1 { m + ny * z } else { y + ny * m };
-                for (v, s) in row.iter_mut().zip(&src[other * nx..(other + 1) * nx]) {
-                    *v += wq * s;
-                }
-            }
-        });
-    }
-    let _ = nz;
 }

@@ -56,6 +56,11 @@ pub struct SegmentedTissue {
     pub partial_volume: Option<PartialVolume>,
     /// How far the surface was moved along its normals to enclose that measure, mm.
     pub surface_offset_mm: f64,
+    /// Where the surface was fitted through the scan's blur (the pulp), the volume (mm³) nearest
+    /// the measure that its surface read voxel by voxel could have enclosed: apart from the
+    /// measure, the scan does not resolve the tissue and its volume rests on that fit.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub per_voxel_mm3: Option<f64>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -110,7 +115,7 @@ pub struct ScanReport {
 fn scan_warnings(tissues: &[SegmentedTissue], calibration: &Calibration, canal: Option<String>, metal: Option<String>, scan_voxel_mm: f64) -> Vec<String> {
     let volume = |name: &str| tissues.iter().find(|t| t.name == name).map_or(0.0, |t| t.volume_mm3);
     let pulp = tissues.iter().find(|t| t.name == "pulp");
-    let unresolved = pulp.and_then(|p| pulp_fit_warning(p.volume_mm3, p.partial_volume.as_ref()?, p.surface_offset_mm, calibration, scan_voxel_mm));
+    let unresolved = pulp.and_then(|p| pulp_fit_warning(p.volume_mm3, p.partial_volume.as_ref()?, p.surface_offset_mm, p.per_voxel_mm3, calibration, scan_voxel_mm));
     let missing = pulp_warning(volume("pulp"), volume("enamel") + volume("dentin") + volume("pulp"), calibration);
     [missing, canal, unresolved, metal].into_iter().flatten().collect()
 }
@@ -337,6 +342,7 @@ impl TissuesFromScan {
                 scan_voxels: tooth_labels.labels.iter().filter(|&&l| l == label as u8).count(),
                 active_voxels: grid.active_voxel_count(),
                 surface_offset_mm: fit.as_ref().map_or(0.0, |f| f.offset_mm),
+                per_voxel_mm3: fit.as_ref().and_then(|f| f.per_voxel_mm3),
                 partial_volume: fit.map(|f| f.measure),
             });
             model.push(props, grid)?;
@@ -640,6 +646,8 @@ struct NestedBuilder<'a> {
 struct VolumeFit {
     measure: PartialVolume,
     offset_mm: f64,
+    /// [`SegmentedTissue::per_voxel_mm3`].
+    per_voxel_mm3: Option<f64>,
 }
 
 impl NestedBuilder<'_> {
@@ -1208,7 +1216,7 @@ impl NestedBuilder<'_> {
             grid.offset(step)?;
             offset_mm += step;
         }
-        Ok(Some(VolumeFit { measure, offset_mm }))
+        Ok(Some(VolumeFit { measure, offset_mm, per_voxel_mm3: None }))
     }
 
     /// The field's iso-surface as a level set at the model's voxel size, straight from the field
@@ -1228,21 +1236,27 @@ impl NestedBuilder<'_> {
 
     /// The pulp's level set from its field ([`Self::union_field`]), fitted to the scan through
     /// its blur where the outer surface's edge profile read the blur (`edge_blur_mm`, its voxel's
-    /// box in it) and the pulp's grey was measured in its deepest voxels ([`Self::pulp_through_blur`];
-    /// a grey the calibration predicts sets the fit's contrast unchecked: a nibabel incisor at
-    /// 0.4 mm read its pulp −16 %, surface and measure alike, and so unwarned), else the field's
+    /// box in it; [`Self::pulp_through_blur`]), else the field's
     /// own iso-surface. Its band is wider by the most [`Self::match_partial_volume`] moves it, so
     /// that the fit shifts its values (distances to the moved surface) instead of re-tracking the
     /// band per half voxel (0.56 s of the bench tooth's 0.6 s fit); the band is the usual one
-    /// again after [`Self::fit_pulp`].
-    fn pulp(&self, field: &[f32], measure: Option<&PartialVolume>, edge_blur_mm: Option<f64>) -> Result<LevelSet> {
+    /// again after [`Self::fit_pulp`]. With whether it was fitted through the blur.
+    fn pulp(&self, field: &[f32], measure: Option<&PartialVolume>, edge_blur_mm: Option<f64>) -> Result<(LevelSet, bool)> {
         let band = BAND_VOXELS + (self.fit_limit_mm() / self.voxel_size_mm).ceil();
-        if let (Some(measure), Some(blur)) = (measure.filter(|m| m.tissue_grey_measured), edge_blur_mm) {
+        if let (Some(measure), Some(blur)) = (measure, edge_blur_mm) {
             if let Some(fine) = self.pulp_through_blur(field, measure, blur) {
-                return field::level_set_from_field_with(&fine.grid(), field::Kernel::CubicBSpline, 0.0, self.voxel_size_mm, band);
+                return Ok((field::level_set_from_field_with(&fine.grid(), field::Kernel::CubicBSpline, 0.0, self.voxel_size_mm, band)?, true));
             }
         }
-        self.level_set_with_band(field, 0.5, band)
+        Ok((self.level_set_with_band(field, 0.5, band)?, false))
+    }
+
+    /// The volume (mm³) nearest `target` that the pulp's surface read voxel by voxel (its
+    /// field's trilinear iso-surface) encloses when moved as [`Self::match_partial_volume`] may.
+    fn per_voxel_reach(&self, field: &[f32], target: f64) -> Result<f64> {
+        let surface = self.trilinear(field)?;
+        let reach = self.fit_limit_mm() * surface.surface.area();
+        Ok(target.clamp(surface.volume - reach, surface.volume + reach))
     }
 
     /// The pulp's surface fitted to the greys of the voxels that mix pulp and dentin alone (no
@@ -1356,8 +1370,11 @@ impl NestedBuilder<'_> {
         self.edge_blur_mm = seen.as_ref().and_then(|seen| seen.edge_blur_mm);
         let pulp = match pulp_field {
             Some(field) => {
-                let mut pulp = self.pulp(&field, measure.as_ref(), self.edge_blur_mm)?;
-                if let Some(fit) = self.fit_pulp(&mut pulp, measure)? {
+                let (mut pulp, through_blur) = self.pulp(&field, measure.as_ref(), self.edge_blur_mm)?;
+                if let Some(mut fit) = self.fit_pulp(&mut pulp, measure)? {
+                    if through_blur {
+                        fit.per_voxel_mm3 = Some(self.per_voxel_reach(&field, fit.measure.volume_mm3)?);
+                    }
                     self.fits.push((Pulp, fit));
                 }
                 Some(pulp)
@@ -1793,7 +1810,7 @@ mod tests {
         let measure = enclosed_volume(&scan, &labels, Label::Pulp, Label::Dentin, &calibration).unwrap();
         let by_labels = builder.union(&[Label::Pulp], None).unwrap().unwrap();
         let field = builder.union_field(&[Label::Pulp], Some(measure.tissue_grey), None).unwrap().0;
-        let mut by_grey = builder.pulp(&field, Some(&measure), None).unwrap();
+        let mut by_grey = builder.pulp(&field, Some(&measure), None).unwrap().0;
         let (labels_deg, grey_deg) = (chamber_normal_error(&by_labels), chamber_normal_error(&by_grey));
         // Measured: labels 7.25°, grey 1.30° (1.46° with the grey of the border's first ring of
         // voxels alone).
@@ -1848,8 +1865,9 @@ mod tests {
         // The scan's blur as an edge profile reads it: the discrete kernel's σ (0.46 voxel) and
         // the voxel's box.
         let edge_blur = ((0.46f64 * 0.3).powi(2) + 0.3f64.powi(2) / 12.0).sqrt();
-        let mut by_grey = builder.pulp(&field, Some(&measure), None).unwrap();
-        let mut fitted = builder.pulp(&field, Some(&measure), Some(edge_blur)).unwrap();
+        let mut by_grey = builder.pulp(&field, Some(&measure), None).unwrap().0;
+        let (mut fitted, through_blur) = builder.pulp(&field, Some(&measure), Some(edge_blur)).unwrap();
+        assert!(through_blur, "the blur sampled: fitted through it");
         for grid in [&mut by_grey, &mut fitted] {
             builder.fit_pulp(grid, Some(measure.clone())).unwrap();
         }
@@ -1873,8 +1891,9 @@ mod tests {
         assert!((fitted.volume() / truth - 1.0).abs() < 0.01);
         // Where the blur is not sampled (σ under a third of the voxel) the pulp is the field's.
         let hidden = ((0.05f64).powi(2) + 0.3f64.powi(2) / 12.0).sqrt();
-        let plain = builder.pulp(&field, Some(&measure), Some(hidden)).unwrap();
-        let start = builder.pulp(&field, Some(&measure), None).unwrap();
+        let (plain, through_blur) = builder.pulp(&field, Some(&measure), Some(hidden)).unwrap();
+        let start = builder.pulp(&field, Some(&measure), None).unwrap().0;
+        assert!(!through_blur);
         assert_eq!(plain.volume(), start.volume());
     }
 
