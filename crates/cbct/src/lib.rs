@@ -28,6 +28,7 @@ pub use partial_volume::{enclosed_volume, PartialVolume};
 pub use phantom::{Phantom, PhantomSpec};
 pub use calibrate::{calibrate, calibrate_below, Calibration};
 pub use canal::trace_thin_canals;
+pub use mask::within_box;
 pub use roi::{crop, crop_between_planes, crop_labels, pad, pad_labels, tooth_box, IndexBox, Plane};
 pub use segment::{dice, find_teeth, segment, tissue_field, FoundTooth, SegmentOptions, ToothSelect};
 

@@ -299,3 +299,16 @@ mod tests {
         }
     }
 }
+
+/// Where `mask` holds within `radius` voxels along each axis (a box, separably).
+pub fn within_box(mut mask: Vec<bool>, dims: [usize; 3], radius: usize) -> Vec<bool> {
+    for (axis, stride) in [(0usize, 1usize), (1, dims[0]), (2, dims[0] * dims[1])] {
+        let n_axis = dims[axis];
+        let src = mask.clone();
+        mask.par_iter_mut().enumerate().for_each(|(n, out)| {
+            let at = (n / stride) % n_axis;
+            *out = (at.saturating_sub(radius)..=(at + radius).min(n_axis - 1)).any(|a| src[n - at * stride + a * stride]);
+        });
+    }
+    mask
+}

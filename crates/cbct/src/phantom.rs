@@ -1098,9 +1098,14 @@ impl Phantom {
 }
 
 /// Separable Gaussian blur in voxel units (σ per axis), clamped at the borders. O(n·r) per axis.
-/// Along y and z each row of x is a weighted sum of whole rows (contiguous, no gather).
+/// Along y and z each row of x is a weighted sum of whole rows (contiguous, no gather); rows
+/// that are all zero are skipped, and a row that only such rows reach stays zero (an indicator or
+/// a band's residual is mostly zero).
 pub fn gaussian_blur(v: &mut [f32], dims: [usize; 3], sigma: [f64; 3]) {
     let [nx, ny, _] = dims;
+    if nx == 0 {
+        return;
+    }
     for axis in 0..3 {
         if sigma[axis] <= 0.0 || dims[axis] < 2 {
             continue;
@@ -1112,6 +1117,10 @@ pub fn gaussian_blur(v: &mut [f32], dims: [usize; 3], sigma: [f64; 3]) {
         let n = dims[axis] as isize;
         if axis == 0 {
             v.par_chunks_mut(nx).for_each_init(Vec::new, |line: &mut Vec<f32>, row| {
+                if row.iter().all(|&x| x == 0.0) {
+                    row.fill(0.0);
+                    return;
+                }
                 line.clear();
                 line.extend_from_slice(row);
                 for (t, out) in row.iter_mut().enumerate() {
@@ -1125,6 +1134,7 @@ pub fn gaussian_blur(v: &mut [f32], dims: [usize; 3], sigma: [f64; 3]) {
             continue;
         }
         let src = v.to_vec();
+        let zero: Vec<bool> = src.par_chunks(nx).map(|row| row.iter().all(|&x| x == 0.0)).collect();
         v.par_chunks_mut(nx).enumerate().for_each(|(row_index, row)| {
             let (y, z) = (row_index % ny, row_index / ny);
             let at = if axis == 1 { y } else { z } as isize;
@@ -1132,6 +1142,9 @@ pub fn gaussian_blur(v: &mut [f32], dims: [usize; 3], sigma: [f64; 3]) {
             for (q, wq) in w.iter().enumerate() {
                 let m = (at + q as isize - r).clamp(0, n - 1) as usize;
                 let other = if axis == 1 { m + ny * z } else { y + ny * m };
+                if zero[other] {
+                    continue;
+                }
                 for (out, s) in row.iter_mut().zip(&src[other * nx..(other + 1) * nx]) {
                     *out += wq * s;
                 }

@@ -8,8 +8,7 @@
 //! over each voxel, gives the scan's greys: a level set on a grid finer than the scan's is moved
 //! along its normals by the back-projected residual until the two agree.
 use dentsim_cbct::phantom::gaussian_blur;
-use dentsim_cbct::Volume;
-use glam::DVec3;
+use dentsim_cbct::{within_box, Volume};
 use rayon::prelude::*;
 
 use crate::tissues::field::GridField;
@@ -71,13 +70,12 @@ pub fn fit_through_blur(scan: &Volume, start: &[f32], lo: [usize; 3], hi: [usize
     let cell: [f64; 3] = std::array::from_fn(|a| scan.spacing[a] / refine[a] as f64);
     let cell_mm = cell.iter().sum::<f64>() / 3.0;
     let len = dims[0] * dims[1] * dims[2];
-    // Fine cell centre → the scan's continuous index.
-    let scan_index = |f: [usize; 3]| -> DVec3 { DVec3::from_array(std::array::from_fn(|a| lo[a] as f64 + (f[a] as f64 + 0.5) / refine[a] as f64 - 0.5)) };
     let unravel = |n: usize| [n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1])];
     let coarse = GridField { dims: scan.dims, index_to_world: scan.index_to_world(), values: start };
 
     // The start: the spline's field minus its iso value over its slope, a distance near the surface.
-    let u: Vec<f32> = (0..len).into_par_iter().map(|n| (coarse.spline_at(scan_index(unravel(n))) - 0.5) as f32).collect();
+    let axes: [Vec<f64>; 3] = std::array::from_fn(|a| (0..dims[a]).map(|f| lo[a] as f64 + (f as f64 + 0.5) / refine[a] as f64 - 0.5).collect());
+    let u: Vec<f32> = coarse.spline_on_grid(&axes).into_par_iter().map(|v| v - 0.5).collect();
     let slope = |n: usize| -> f64 {
         let f = unravel(n);
         (0..3)
@@ -102,26 +100,48 @@ pub fn fit_through_blur(scan: &Volume, start: &[f32], lo: [usize; 3], hi: [usize
     // The scan's voxels in the box, their share of the inside tissue and whether they are fitted.
     let coarse_len = span[0] * span[1] * span[2];
     let voxel_of = |c: usize| scan.index(lo[0] + c % span[0], lo[1] + (c / span[0]) % span[1], lo[2] + c / (span[0] * span[1]));
+    // Only voxels within reach of the start's surface: the back-projection carries a voxel's
+    // residual 3 of its widths (σ and a voxel) at most, and the surface moves at most `reach`;
+    // farther voxels would only move cells that stay on their side.
+    let near_mm = reach + 3.0 * (model.sigma_mm.powi(2) + (BACK_PROJECTION_VOXELS * scan.min_spacing()).powi(2)).sqrt();
+    let inside: Vec<bool> = (0..coarse_len).into_par_iter().map(|c| start[voxel_of(c)] > 0.5).collect();
+    let border: Vec<bool> = (0..coarse_len)
+        .into_par_iter()
+        .map(|c| {
+            let at = [c % span[0], (c / span[0]) % span[1], c / (span[0] * span[1])];
+            let strides = [1, span[0], span[0] * span[1]];
+            (0..3).any(|a| at[a] + 1 < span[a] && inside[c + strides[a]] != inside[c])
+        })
+        .collect();
+    let near = within_box(border, span, (near_mm / scan.min_spacing()).ceil() as usize);
     let observed: Vec<Option<f32>> = (0..coarse_len)
         .into_par_iter()
         .map(|c| {
             let n = voxel_of(c);
-            fitted(n).then(|| ((f64::from(scan.values[n]) - model.outside_grey) / contrast) as f32)
+            (near[c] && fitted(n)).then(|| ((f64::from(scan.values[n]) - model.outside_grey) / contrast) as f32)
         })
         .collect();
     if observed.iter().all(Option::is_none) {
         return None;
     }
-    let parent = |n: usize| {
-        let f = unravel(n);
-        f[0] / refine[0] + span[0] * (f[1] / refine[1] + span[1] * (f[2] / refine[2]))
+    // Each fine cell's scan voxel, a row of x at a time.
+    let upsample = |coarse: &[f32]| -> Vec<f32> {
+        let mut fine = vec![0f32; len];
+        fine.par_chunks_mut(dims[0]).enumerate().for_each(|(row, out)| {
+            let (y, z) = (row % dims[1], row / dims[1]);
+            let from = &coarse[span[0] * (y / refine[1] + span[1] * (z / refine[2]))..][..span[0]];
+            for (x, v) in out.iter_mut().enumerate() {
+                *v = from[x / refine[0]];
+            }
+        });
+        fine
     };
     let sigma_cells: [f64; 3] = std::array::from_fn(|a| model.sigma_mm / cell[a]);
     // The back-projection's widening is done on the scan's grid, the point spread on the fine one.
     let widen = [BACK_PROJECTION_VOXELS; 3];
     let back_project = |coarse: &mut Vec<f32>| -> Vec<f32> {
         gaussian_blur(coarse, span, widen);
-        let mut fine: Vec<f32> = (0..len).into_par_iter().map(|n| coarse[parent(n)]).collect();
+        let mut fine = upsample(coarse);
         gaussian_blur(&mut fine, dims, sigma_cells);
         fine
     };
@@ -191,17 +211,19 @@ fn voxel_sums(fine: &[f32], dims: [usize; 3], refine: [usize; 3], span: [usize; 
 
 /// One explicit step of the field's diffusion by `amount` mm² (cells on the grid's faces kept).
 fn diffuse(field: &mut [f32], dims: [usize; 3], cell: [f64; 3], amount: f64) {
+    let [nx, ny, nz] = dims;
     let src = field.to_vec();
-    let weights: [f32; 3] = std::array::from_fn(|a| (amount / (cell[a] * cell[a])) as f32);
-    field.par_iter_mut().enumerate().for_each(|(n, v)| {
-        let at = [n % dims[0], (n / dims[0]) % dims[1], n / (dims[0] * dims[1])];
-        if (0..3).any(|a| at[a] == 0 || at[a] + 1 >= dims[a]) {
+    let [wx, wy, wz]: [f32; 3] = std::array::from_fn(|a| (amount / (cell[a] * cell[a])) as f32);
+    field.par_chunks_mut(nx).enumerate().for_each(|(row, out)| {
+        let (y, z) = (row % ny, row / ny);
+        if y == 0 || z == 0 || y + 1 >= ny || z + 1 >= nz {
             return;
         }
-        let mut change = 0f32;
-        for (a, stride) in [1, dims[0], dims[0] * dims[1]].into_iter().enumerate() {
-            change += weights[a] * (src[n - stride] + src[n + stride] - 2.0 * src[n]);
+        let at = |dy: isize, dz: isize| &src[nx * ((y as isize + dy) as usize + ny * (z as isize + dz) as usize)..][..nx];
+        let (here, (south, north), (below, above)) = (at(0, 0), (at(-1, 0), at(1, 0)), (at(0, -1), at(0, 1)));
+        for x in 1..nx.saturating_sub(1) {
+            let c = here[x];
+            out[x] += wx * (here[x - 1] + here[x + 1] - 2.0 * c) + wy * (south[x] + north[x] - 2.0 * c) + wz * (below[x] + above[x] - 2.0 * c);
         }
-        *v += change;
     });
 }

@@ -9,7 +9,7 @@ use std::time::Instant;
 use dentsim_cbct::bloom::{bloom_levels, hide_bloom_above, saturated_metal, unbloom, MetalBloom};
 use dentsim_cbct::phantom::gaussian_blur;
 use dentsim_cbct::volume::face_neighbours;
-use dentsim_cbct::{calibrate_below, crop, crop_labels, enclosed_volume, find_teeth, pad, pad_labels, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
+use dentsim_cbct::{calibrate_below, within_box, crop, crop_labels, enclosed_volume, find_teeth, pad, pad_labels, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
 
 use dentsim_vdb::{LevelSet, TriMesh};
 use serde::Serialize;
@@ -1315,9 +1315,10 @@ impl NestedBuilder<'_> {
         let mut step = |name: &str| if go_on(name) { Ok(()) } else { Err(stopped("segmentation")) };
         step("pulp and caries")?;
         // The unions are built side by side (each is parallel inside, but has serial stretches
-        // that leave a core idle); the core's labels need the tooth's field, so it follows it.
+        // that leave a core idle); the core's labels and the pulp's fit need the tooth's edge
+        // profile, so they follow it, beside each other.
         let this = &*self;
-        let (inner, (core, tooth)) = rayon::join(
+        let (inner, profiled) = rayon::join(
             || -> Result<_> {
                 // The pulp/dentin border placed by grey (pulp normals 13.3 → 9.1° over
                 // the family), with the pulp's grey its measure found; its surface waits for
@@ -1326,61 +1327,67 @@ impl NestedBuilder<'_> {
                 let pulp = this.union_field(&[Pulp], measure.as_ref().map(|m| m.tissue_grey), None).map(|(field, _, _)| field);
                 Ok((pulp, measure, this.union(&[Caries], None)?))
             },
+            || -> Result<_> {
+                let Some((field, inside, codes)) = this.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) else { return Ok(None) };
+                let profiles = this.edge_profiles(&field)?;
+                Ok(Some(((field, inside, codes), profiles)))
+            },
+        );
+        let (pulp_field, measure, caries) = inner?;
+        let (tooth_field, seen, roots) = match profiled? {
+            Some((tooth_field, EdgeProfiles { seen, roots })) => (Some(tooth_field), seen, roots),
+            None => (None, None, RootBorder::Unread),
+        };
+        let edge_blur_mm = seen.as_ref().and_then(|seen| seen.edge_blur_mm);
+        let this = &NestedBuilder { fits: Vec::new(), roots, edge_blur_mm, ..*self };
+        let ((core, tooth), pulp) = rayon::join(
             || {
-                let Some((field, inside, codes)) = this.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) else {
-                    return (this.union(&[Dentin, Pulp, Caries], None).map(|core| (core, None, RootBorder::Unread)), Ok(None));
-                };
-                // The core from labels that see the enamel under the outside's grey (the
-                // tooth's field tells how far the outside's grey reaches each voxel).
-                let EdgeProfiles { seen, roots } = match this.edge_profiles(&field) {
-                    Ok(profiles) => profiles,
-                    Err(e) => return (Err(e), Ok(None)),
-                };
-                let this = &NestedBuilder { fits: Vec::new(), roots, ..*this };
                 rayon::join(
-                    || -> Result<(Option<LevelSet>, Option<SeenUnderTheOutside>, RootBorder)> {
-                        let Some(seen) = seen else {
-                            return Ok((this.union(&[Dentin, Pulp, Caries], None)?, None, roots));
-                        };
+                    // The core from labels that see the enamel under the outside's grey (the
+                    // tooth's field tells how far the outside's grey reaches each voxel).
+                    || -> Result<Option<LevelSet>> {
+                        let Some(seen) = seen.as_ref() else { return this.union(&[Dentin, Pulp, Caries], None) };
                         let with_seen = NestedBuilder { labels: &seen.labels, fits: Vec::new(), ..*this };
-                        let Some((field, inside, codes)) = with_seen.union_field(&[Dentin, Pulp, Caries], None, Some(&seen.dentin_share)) else {
-                            return Ok((None, Some(seen), roots));
-                        };
+                        let Some((field, inside, codes)) = with_seen.union_field(&[Dentin, Pulp, Caries], None, Some(&seen.dentin_share)) else { return Ok(None) };
                         let (mut core, trilinear) = with_seen.union_grid_unsettled(&field, &inside, &codes)?;
                         if let Some(trilinear) = trilinear {
-                            this.settle(&mut core, &trilinear, Some(&seen))?;
+                            this.settle(&mut core, &trilinear, Some(seen))?;
                         }
-                        Ok((Some(core), Some(seen), roots))
+                        Ok(Some(core))
                     },
                     // The tooth's field was placed by grey before its edge profile was read:
                     // roots fused to their bone take the bone as their partner, and roots behind
                     // a ligament are read through the bone's blur, so it is placed again.
-                    || match roots {
-                        RootBorder::Unread => this.union_grid_unsettled(&field, &inside, &codes).map(Some),
-                        _ => match this.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) {
+                    || match (&tooth_field, roots) {
+                        (None, _) => Ok(None),
+                        (Some((field, inside, codes)), RootBorder::Unread) => this.union_grid_unsettled(field, inside, codes).map(Some),
+                        (Some(_), _) => match this.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) {
                             Some((field, inside, codes)) => this.union_grid_unsettled(&field, &inside, &codes).map(Some),
                             None => Ok(None),
                         },
                     },
                 )
             },
-        );
-        let (pulp_field, measure, caries) = inner?;
-        let (core, seen, roots) = core?;
-        self.edge_blur_mm = seen.as_ref().and_then(|seen| seen.edge_blur_mm);
-        let pulp = match pulp_field {
-            Some(field) => {
-                let (mut pulp, through_blur) = self.pulp(&field, measure.as_ref(), self.edge_blur_mm)?;
-                if let Some(mut fit) = self.fit_pulp(&mut pulp, measure)? {
-                    if through_blur {
-                        fit.per_voxel_mm3 = Some(self.per_voxel_reach(&field, fit.measure.volume_mm3)?);
-                    }
-                    self.fits.push((Pulp, fit));
+            || -> Result<Option<(LevelSet, Option<VolumeFit>)>> {
+                let Some(field) = pulp_field.as_ref() else { return Ok(None) };
+                let (mut pulp, through_blur) = this.pulp(field, measure.as_ref(), edge_blur_mm)?;
+                let mut fit = this.fit_pulp(&mut pulp, measure.clone())?;
+                if let (Some(fit), true) = (fit.as_mut(), through_blur) {
+                    fit.per_voxel_mm3 = Some(this.per_voxel_reach(field, fit.measure.volume_mm3)?);
                 }
+                Ok(Some((pulp, fit)))
+            },
+        );
+        drop(tooth_field);
+        self.edge_blur_mm = edge_blur_mm;
+        let pulp = match pulp? {
+            Some((pulp, fit)) => {
+                self.fits.extend(fit.map(|fit| (Pulp, fit)));
                 Some(pulp)
             }
             None => None,
         };
+        let core = core?;
         step("dentin")?;
         step("enamel")?;
         self.roots = roots;
@@ -1524,20 +1531,6 @@ fn peel_blurred_rim(scan: &Volume, labels: &mut dentsim_cbct::LabelVolume, cal: 
 /// How many layers [`peel_blurred_rim`] peels at most, and how near enamel must be to read a
 /// voxel against it (the family: 2 and 3 alike, 5 worse on the dentin's normals).
 const RIM_VOXELS: usize = 2;
-
-/// Where `mask` holds within `radius` voxels along each axis (a box, separably).
-fn within_box(mut mask: Vec<bool>, dims: [usize; 3], radius: usize) -> Vec<bool> {
-    use rayon::prelude::*;
-    for (axis, stride) in [(0usize, 1usize), (1, dims[0]), (2, dims[0] * dims[1])] {
-        let n_axis = dims[axis];
-        let src = mask.clone();
-        mask.par_iter_mut().enumerate().for_each(|(n, out)| {
-            let at = (n / stride) % n_axis;
-            *out = (at.saturating_sub(radius)..=(at + radius).min(n_axis - 1)).any(|a| src[n - at * stride + a * stride]);
-        });
-    }
-    mask
-}
 
 /// Relabels every `label` voxel outside its largest 6-connected component as `replacement` where
 /// its speck touches `replacement`, else as `elsewhere`; returns how many. A tooth's dentin is one
