@@ -1340,44 +1340,40 @@ impl NestedBuilder<'_> {
         };
         let edge_blur_mm = seen.as_ref().and_then(|seen| seen.edge_blur_mm);
         let this = &NestedBuilder { fits: Vec::new(), roots, edge_blur_mm, ..*self };
-        let ((core, tooth), pulp) = rayon::join(
-            || {
-                rayon::join(
-                    // The core from labels that see the enamel under the outside's grey (the
-                    // tooth's field tells how far the outside's grey reaches each voxel).
-                    || -> Result<Option<LevelSet>> {
-                        let Some(seen) = seen.as_ref() else { return this.union(&[Dentin, Pulp, Caries], None) };
-                        let with_seen = NestedBuilder { labels: &seen.labels, fits: Vec::new(), ..*this };
-                        let Some((field, inside, codes)) = with_seen.union_field(&[Dentin, Pulp, Caries], None, Some(&seen.dentin_share)) else { return Ok(None) };
-                        let (mut core, trilinear) = with_seen.union_grid_unsettled(&field, &inside, &codes)?;
-                        if let Some(trilinear) = trilinear {
-                            this.settle(&mut core, &trilinear, Some(seen))?;
-                        }
-                        Ok(Some(core))
-                    },
-                    // The tooth's field was placed by grey before its edge profile was read:
-                    // roots fused to their bone take the bone as their partner, and roots behind
-                    // a ligament are read through the bone's blur, so it is placed again.
-                    || match (&tooth_field, roots) {
-                        (None, _) => Ok(None),
-                        (Some((field, inside, codes)), RootBorder::Unread) => this.union_grid_unsettled(field, inside, codes).map(Some),
-                        (Some(_), _) => match this.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) {
-                            Some((field, inside, codes)) => this.union_grid_unsettled(&field, &inside, &codes).map(Some),
-                            None => Ok(None),
-                        },
-                    },
-                )
+        // The core from labels that see the enamel under the outside's grey (the tooth's field
+        // tells how far the outside's grey reaches each voxel).
+        let core = || -> Result<Option<LevelSet>> {
+            let Some(seen) = seen.as_ref() else { return this.union(&[Dentin, Pulp, Caries], None) };
+            let with_seen = NestedBuilder { labels: &seen.labels, fits: Vec::new(), ..*this };
+            let Some((field, inside, codes)) = with_seen.union_field(&[Dentin, Pulp, Caries], None, Some(&seen.dentin_share)) else { return Ok(None) };
+            let (mut core, trilinear) = with_seen.union_grid_unsettled(&field, &inside, &codes)?;
+            if let Some(trilinear) = trilinear {
+                this.settle(&mut core, &trilinear, Some(seen))?;
+            }
+            Ok(Some(core))
+        };
+        // The tooth's field was placed by grey before its edge profile was read: roots fused to
+        // their bone take the bone as their partner, and roots behind a ligament are read
+        // through the bone's blur, so it is placed again.
+        let tooth = || match (&tooth_field, roots) {
+            (None, _) => Ok(None),
+            (Some((field, inside, codes)), RootBorder::Unread) => this.union_grid_unsettled(field, inside, codes).map(Some),
+            (Some(_), _) => match this.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) {
+                Some((field, inside, codes)) => this.union_grid_unsettled(&field, &inside, &codes).map(Some),
+                None => Ok(None),
             },
-            || -> Result<Option<(LevelSet, Option<VolumeFit>)>> {
-                let Some(field) = pulp_field.as_ref() else { return Ok(None) };
-                let (mut pulp, through_blur) = this.pulp(field, measure.as_ref(), edge_blur_mm)?;
-                let mut fit = this.fit_pulp(&mut pulp, measure.clone())?;
-                if let (Some(fit), true) = (fit.as_mut(), through_blur) {
-                    fit.per_voxel_mm3 = Some(this.per_voxel_reach(field, fit.measure.volume_mm3)?);
-                }
-                Ok(Some((pulp, fit)))
-            },
-        );
+        };
+        let pulp = || -> Result<Option<(LevelSet, Option<VolumeFit>)>> {
+            let Some(field) = pulp_field.as_ref() else { return Ok(None) };
+            let (mut pulp, through_blur) = this.pulp(field, measure.as_ref(), edge_blur_mm)?;
+            let mut fit = this.fit_pulp(&mut pulp, measure.clone())?;
+            if let (Some(fit), true) = (fit.as_mut(), through_blur) {
+                fit.per_voxel_mm3 = Some(this.per_voxel_reach(field, fit.measure.volume_mm3)?);
+            }
+            Ok(Some((pulp, fit)))
+        };
+        // The tooth's surface takes longest; the core's and the pulp's together about as long.
+        let ((core, pulp), tooth) = rayon::join(|| (core(), pulp()), tooth);
         drop(tooth_field);
         self.edge_blur_mm = edge_blur_mm;
         let pulp = match pulp? {
