@@ -34,9 +34,12 @@ impl FineField {
     }
 }
 
-/// The fit's fine cells are about this fraction of σ.
+/// The fit's fine cells are at most this many σ wide (0.67 σ: within 0.1° at 0.3 mm, up to 0.6°
+/// better at 0.15–0.2 mm, for 2.4 times the cells; 1.3 σ: the family's 0.2 mm pulps 0.6–1.9°
+/// worse), and no finer than a quarter of a scan voxel.
 const CELL_PER_SIGMA: f64 = 1.0;
 const MAX_REFINE: usize = 4;
+/// With the curvature prior 5–20 steps come out within 0.3° of each other on the family.
 const MAX_STEPS: usize = 8;
 /// Share of the Gauss–Newton step taken (the back-projection's gain is a flat border's).
 const DAMPING: f64 = 0.7;
