@@ -121,6 +121,11 @@ impl Volume {
     pub fn voxel_volume_mm3(&self) -> f64 {
         self.spacing[0] * self.spacing[1] * self.spacing[2]
     }
+    /// The variance (mm², mean over the axes) a voxel's averaging adds to the scan's blur: its
+    /// box's, h²/12.
+    pub fn box_variance_mm2(&self) -> f64 {
+        self.spacing.iter().map(|h| h * h / 12.0).sum::<f64>() / 3.0
+    }
     /// Builds a volume after checking the value count and that no value is NaN.
     pub fn new(dims: [usize; 3], spacing: [f64; 3], origin: [f64; 3], direction: [[f64; 3]; 3], values: Vec<f32>, source: SourceInfo) -> Result<Self> {
         let n = dims.iter().try_fold(1usize, |a, &d| a.checked_mul(d));

@@ -151,8 +151,7 @@ pub fn fit_through_blur(scan: &Volume, start: &[f32], lo: [usize; 3], hi: [usize
     let weight = back_project(&mut observed.iter().map(|o| f32::from(u8::from(o.is_some()))).collect());
     // A flat border displaced by d leaves a residual share d·N(x; σₜ) (σₜ the point spread and
     // the voxel's box together); back-projected through both again it reads d / (2√π σₜ) at the border.
-    let box_variance = scan.spacing.iter().map(|h| h * h / 12.0).sum::<f64>() / 3.0;
-    let sigma_t = (model.sigma_mm.powi(2) + box_variance).sqrt();
+    let sigma_t = (model.sigma_mm.powi(2) + scan.box_variance_mm2()).sqrt();
     let gain = (DAMPING * 2.0 * std::f64::consts::PI.sqrt() * sigma_t) as f32;
     let limit = (0.5 * cell_mm) as f32;
     let per_voxel = (refine[0] * refine[1] * refine[2]) as f32;

@@ -1266,8 +1266,7 @@ impl NestedBuilder<'_> {
     fn pulp_through_blur(&self, field: &[f32], measure: &PartialVolume, edge_blur_mm: f64) -> Option<blur_fit::FineField> {
         let dims = self.scan.dims;
         let labels = &self.labels.labels;
-        let box_variance = self.scan.spacing.iter().map(|h| h * h / 12.0).sum::<f64>() / 3.0;
-        let sigma_mm = (edge_blur_mm.powi(2) - box_variance).max(0.0).sqrt();
+        let sigma_mm = (edge_blur_mm.powi(2) - self.scan.box_variance_mm2()).max(0.0).sqrt();
         if sigma_mm < MIN_BLUR_PER_VOXEL * self.scan.spacing.iter().cloned().fold(0.0, f64::max) {
             return None;
         }
