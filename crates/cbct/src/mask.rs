@@ -7,7 +7,9 @@
 use rayon::prelude::*;
 
 /// Each voxel's `f(own, [−x, +x, −y, +y, −z, +z] neighbours)` over `of` (a mask, or levels), with `beyond`
-/// past the grid's border; slabs side by side, rows scanned with no index divided.
+/// past the grid's border; slabs side by side, rows scanned with no index divided. A row's
+/// neighbour rows are slices (a row of `beyond` past the border), so its inner voxels need no
+/// test of where they lie (a tooth's search box, 11 M voxels: 23 → ms per erosion).
 pub fn neighbour_map<T: Copy + Sync, U: Copy + Default + Send>(dims: [usize; 3], of: &[T], beyond: T, f: impl Fn(T, [T; 6]) -> U + Sync) -> Vec<U> {
     let [nx, ny, nz] = dims;
     let (sy, sz) = (nx, nx * ny);
@@ -15,21 +17,25 @@ pub fn neighbour_map<T: Copy + Sync, U: Copy + Default + Send>(dims: [usize; 3],
     if of.is_empty() {
         return out;
     }
+    let outside = vec![beyond; nx];
     out.par_chunks_mut(sz).enumerate().for_each(|(k, slab)| {
-        for j in 0..ny {
-            let row = sy * j + sz * k;
-            for i in 0..nx {
-                let n = row + i;
-                let near = [
-                    if i > 0 { of[n - 1] } else { beyond },
-                    if i + 1 < nx { of[n + 1] } else { beyond },
-                    if j > 0 { of[n - sy] } else { beyond },
-                    if j + 1 < ny { of[n + sy] } else { beyond },
-                    if k > 0 { of[n - sz] } else { beyond },
-                    if k + 1 < nz { of[n + sz] } else { beyond },
-                ];
-                slab[sy * j + i] = f(of[n], near);
+        let row = |j: usize, k: usize| &of[sy * j + sz * k..][..nx];
+        for (j, dst) in slab.chunks_exact_mut(nx).enumerate() {
+            let here = row(j, k);
+            let south = if j > 0 { row(j - 1, k) } else { &outside };
+            let north = if j + 1 < ny { row(j + 1, k) } else { &outside };
+            let below = if k > 0 { row(j, k - 1) } else { &outside };
+            let above = if k + 1 < nz { row(j, k + 1) } else { &outside };
+            let at = |i: usize, left: T, right: T| f(here[i], [left, right, south[i], north[i], below[i], above[i]]);
+            if nx == 1 {
+                dst[0] = at(0, beyond, beyond);
+                continue;
             }
+            dst[0] = at(0, beyond, here[1]);
+            for i in 1..nx - 1 {
+                dst[i] = at(i, here[i - 1], here[i + 1]);
+            }
+            dst[nx - 1] = at(nx - 1, here[nx - 2], beyond);
         }
     });
     out
@@ -247,6 +253,23 @@ mod tests {
             }
         }
         out
+    }
+
+    #[test]
+    fn the_neighbour_map_sees_each_voxels_six_neighbours_and_beyond_past_the_border() {
+        for (dims, m) in masks() {
+            let [nx, ny, nz] = dims;
+            // Each voxel's own index and its neighbours' (usize::MAX past the border), in order.
+            let index: Vec<usize> = (0..m.len()).collect();
+            let got = neighbour_map(dims, &index, usize::MAX, |own, near| (own, near));
+            for (n, &(own, near)) in got.iter().enumerate() {
+                let (i, j, k) = (n % nx, (n / nx) % ny, n / (nx * ny));
+                let at = |ok: bool, d: isize| if ok { n.wrapping_add_signed(d) } else { usize::MAX };
+                let (sy, sz) = (nx as isize, (nx * ny) as isize);
+                let expected = [at(i > 0, -1), at(i + 1 < nx, 1), at(j > 0, -sy), at(j + 1 < ny, sy), at(k > 0, -sz), at(k + 1 < nz, sz)];
+                assert_eq!((own, near), (n, expected), "{dims:?} voxel {n}");
+            }
+        }
     }
 
     #[test]

@@ -136,7 +136,16 @@ impl BoxGrid {
         (0..3).any(|c| p[c] == 0 || p[c] + 1 == self.g.d[c])
     }
     fn gather<T: Copy>(&self, m: &[T]) -> Vec<T> {
-        (0..self.g.n()).map(|l| m[self.global(l)]).collect()
+        // Row by row (a search box of 11 M voxels: 57 → a few ms against voxel by voxel).
+        let [dx, dy, dz] = self.g.d;
+        let mut out = Vec::with_capacity(self.g.n());
+        for k in 0..dz {
+            for j in 0..dy {
+                let start = self.lo[0] + self.stride[0] * ((j + self.lo[1]) + self.stride[1] * (k + self.lo[2]));
+                out.extend_from_slice(&m[start..start + dx]);
+            }
+        }
+        out
     }
 }
 
@@ -271,11 +280,19 @@ fn cube_around(p: [usize; 3], r: i64, d: [usize; 3]) -> impl Iterator<Item = usi
 /// The (2r+1)³ lattice about `p` with `steps` voxels between its points along each axis, within
 /// the grid `d`.
 fn lattice_around(p: [usize; 3], r: i64, steps: [usize; 3], d: [usize; 3]) -> impl Iterator<Item = usize> {
-    let s = steps.map(|s| s as i64);
-    (-r..=r)
-        .flat_map(move |dk| (-r..=r).flat_map(move |dj| (-r..=r).map(move |di| [p[0] as i64 + s[0] * di, p[1] as i64 + s[1] * dj, p[2] as i64 + s[2] * dk])))
-        .filter(move |q| (0..3).all(|c| q[c] >= 0 && q[c] < d[c] as i64))
-        .map(move |q| q[0] as usize + d[0] * (q[1] as usize + d[1] * q[2] as usize))
+    // Each axis's offsets clipped to the grid first (the surface refinement reads 250 per ring
+    // voxel: testing each point made it 95 ms of the bench tooth's segmentation).
+    let [x, y, z] = [0, 1, 2].map(|c| {
+        let (at, s) = (p[c] as i64, steps[c] as i64);
+        ((-r).max(-(at / s)), r.min((d[c] as i64 - 1 - at).div_euclid(s)), at, s)
+    });
+    let (sy, sz) = (d[0] as i64, (d[0] * d[1]) as i64);
+    (z.0..=z.1).flat_map(move |dk| {
+        (y.0..=y.1).flat_map(move |dj| {
+            let row = (z.2 + z.3 * dk) * sz + (y.2 + y.3 * dj) * sy + x.2;
+            (x.0..=x.1).map(move |di| (row + x.3 * di) as usize)
+        })
+    })
 }
 
 /// The voxel bounds (inclusive) of `mask` in `bx`, grown by `pad` voxels and kept inside the
@@ -1062,4 +1079,31 @@ pub fn tissue_field(vol: &Volume, labels: &LabelVolume, label: Label) -> Vec<f32
         crate::phantom::gaussian_blur(&mut f, vol.dims, [0.8; 3]);
     }
     f
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The lattice clipped axis by axis is the lattice's points inside the grid, in its order.
+    #[test]
+    fn the_lattice_around_a_voxel_is_its_points_inside_the_grid() {
+        let d = [7, 5, 9];
+        for p in [[0, 0, 0], [6, 4, 8], [3, 2, 4], [1, 4, 0], [5, 0, 7]] {
+            for (r, steps) in [(2, [1, 1, 1]), (2, [2, 1, 3]), (3, [1, 1, 1]), (1, [4, 4, 4])] {
+                let mut expected = Vec::new();
+                for dk in -r..=r {
+                    for dj in -r..=r {
+                        for di in -r..=r {
+                            let q = [p[0] as i64 + steps[0] as i64 * di, p[1] as i64 + steps[1] as i64 * dj, p[2] as i64 + steps[2] as i64 * dk];
+                            if (0..3).all(|c| q[c] >= 0 && q[c] < d[c] as i64) {
+                                expected.push(q[0] as usize + d[0] * (q[1] as usize + d[1] * q[2] as usize));
+                            }
+                        }
+                    }
+                }
+                assert_eq!(lattice_around(p, r, steps, d).collect::<Vec<_>>(), expected, "{p:?} r {r} steps {steps:?}");
+            }
+        }
+    }
 }
