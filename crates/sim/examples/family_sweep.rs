@@ -6,8 +6,9 @@
 //! the scan's resolution alone allows; `floor`: the analytic level sets' own figures (the
 //! metric's floor); `resolution`: the analytic tissues blurred by each scan's point spread.
 //! `quiet`: every scan without noise (point spread and integer storage kept): the noise's share.
-//! `regions`: where the enamel's and dentin's normal error lies (DEJ, thin cervical enamel, outer
-//! surface, root, pulp wall), ours against the sampled resolution floor's. `volumes`: where each
+//! `regions`: where the enamel's, dentin's and pulp's normal error lies (DEJ, thin cervical
+//! enamel, outer surface, root, pulp wall; the pulp's chamber, its thin parts and their apices),
+//! ours against the sampled resolution floor's. `volumes`: where each
 //! tissue's volume error lies (mm³ ours holds and the truth not, and the reverse) by the truth's
 //! nearest interface (pulp wall, outer surface, DEJ), or past our band, sampled on a 0.025 mm grid.
 #[path = "../tests/family/mod.rs"]
@@ -50,7 +51,7 @@ fn main() {
         }
         return;
     }
-    // `regions`: where our enamel's and dentin's normal error lies against the sampled floor's.
+    // `regions`: where our enamel's, dentin's and pulp's normal error lies against the sampled floor's.
     if std::env::args().any(|a| a == "regions") {
         let only: Vec<String> = std::env::args().filter_map(|a| a.strip_prefix("only=").map(str::to_owned)).collect();
         for mut case in dentsim_cbct::phantom::family(!quick) {

@@ -194,22 +194,38 @@ pub fn resolution_floor_grids(case: &FamilyCase, voxel_mm: f64, sampled: bool) -
         .collect()
 }
 
+/// [`region_errors`]' pulp: its half-width (mm) below which a part is a canal or a horn, and
+/// how near the root's outside (mm) such a part is its apex.
+const PULP_THIN_MM: f64 = 0.45;
+const PULP_APEX_MM: f64 = 0.8;
+
 /// Where a tissue's normal error lies: its triangles sorted into the tooth's regions by the
 /// analytic SDFs at their centres (`h`: the scan's finest spacing). Enamel: the DEJ, the outer
 /// surface where the enamel is thinner than `h` (the cervical edge), the rest of the outer
 /// surface, and triangles with no true enamel within 2 `h` (slivers); dentin: the pulp's wall,
-/// the DEJ, the outer surface within 2 `h` of the enamel (its edge) and the rest of the root.
+/// the DEJ, the outer surface within 2 `h` of the enamel (its edge) and the rest of the root;
+/// pulp: its chamber, its thin parts (canals, horns) and their ends at the root's outside.
 /// Per region: triangles, mean angle (degrees).
 pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, label: Label, h: f64) -> Vec<(&'static str, usize, f64)> {
     let sdf = |l: Label, p: DVec3| phantom.tooth_sdf(fdi, l, p).unwrap_or(f64::INFINITY);
     let names: &[&'static str] = match label {
         Label::Enamel => &["DEJ", "outer thin", "outer", "no enamel within 2h"],
+        Label::Pulp => &["chamber", "thin (canal, horn)", "apex"],
         _ => &["pulp wall", "DEJ", "root at enamel edge", "root"],
     };
     let mut bins: Vec<(usize, f64)> = vec![(0, 0.0); names.len()];
     let own = |p: DVec3| sdf(label, p);
     for (centre, angle) in triangle_angles(mesh, 40000, &own) {
         let tooth = sdf(Label::Air, centre);
+        if label == Label::Pulp {
+            // Thin where the pulp is nowhere deeper than PULP_THIN_MM within reach along an
+            // axis; an apex where such a part comes within PULP_APEX_MM of the root's outside.
+            let deepest = (0..=24).flat_map(|i| [DVec3::X, DVec3::Y, DVec3::Z, -DVec3::X, -DVec3::Y, -DVec3::Z].map(|d| own(centre + d * (f64::from(i) * 0.05)))).fold(f64::INFINITY, f64::min);
+            let bin = if deepest < -PULP_THIN_MM { 0 } else if tooth < -PULP_APEX_MM { 1 } else { 2 };
+            bins[bin].0 += 1;
+            bins[bin].1 += angle;
+            continue;
+        }
         // Enamel within 2 h along an axis: the enamel's SDF, max(tooth, −core), is ~0 all over
         // the root, so it cannot tell the root from the enamel's edge by itself.
         let near_enamel = (-40..=40).any(|i| {
@@ -258,7 +274,7 @@ pub fn print_regions(case: &FamilyCase, voxel_mm: f64) -> Result<(), String> {
     let h = case.spec.spacing().into_iter().fold(f64::INFINITY, f64::min);
     let floor = resolution_floor_grids(case, voxel_mm, true);
     println!("{}", case.name);
-    for label in [Label::Enamel, Label::Dentin] {
+    for label in [Label::Enamel, Label::Dentin, Label::Pulp] {
         let ours = region_errors(&model.get(label.name()).ok_or("no tissue")?.grid.to_mesh(), &phantom, fdi, label, h);
         let theirs = region_errors(&floor.iter().find(|(l, _)| *l == label).unwrap().1.to_mesh(), &phantom, fdi, label, h);
         let (n_ours, n_floor) = (ours.iter().map(|r| r.1).sum::<usize>().max(1) as f64, theirs.iter().map(|r| r.1).sum::<usize>().max(1) as f64);
