@@ -198,12 +198,16 @@ pub fn resolution_floor_grids(case: &FamilyCase, voxel_mm: f64, sampled: bool) -
 /// how near the root's outside (mm) such a part is its apex.
 const PULP_THIN_MM: f64 = 0.45;
 const PULP_APEX_MM: f64 = 0.8;
+/// [`region_errors`]' dentin: a root is in bone where bone lies this near (mm; the phantom's
+/// ligament is 0.2 mm).
+const ROOT_IN_BONE_MM: f64 = 0.5;
 
 /// Where a tissue's normal error lies: its triangles sorted into the tooth's regions by the
 /// analytic SDFs at their centres (`h`: the scan's finest spacing). Enamel: the DEJ, the outer
 /// surface where the enamel is thinner than `h` (the cervical edge), the rest of the outer
 /// surface, and triangles with no true enamel within 2 `h` (slivers); dentin: the pulp's wall,
-/// the DEJ, the outer surface within 2 `h` of the enamel (its edge) and the rest of the root;
+/// the DEJ, the outer surface within 2 `h` of the enamel (its edge) and the rest of the root,
+/// clear of bone and in it;
 /// pulp: its chamber, its thin parts (canals, horns) and their ends at the root's outside.
 /// Per region: triangles, mean angle (degrees).
 pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, label: Label, h: f64) -> Vec<(&'static str, usize, f64)> {
@@ -211,7 +215,7 @@ pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, la
     let names: &[&'static str] = match label {
         Label::Enamel => &["DEJ", "outer thin", "outer", "no enamel within 2h"],
         Label::Pulp => &["chamber", "thin (canal, horn)", "apex"],
-        _ => &["pulp wall", "DEJ", "root at enamel edge", "root"],
+        _ => &["pulp wall", "DEJ", "root at enamel edge", "root", "root in bone"],
     };
     let mut bins: Vec<(usize, f64)> = vec![(0, 0.0); names.len()];
     let own = |p: DVec3| sdf(label, p);
@@ -249,7 +253,12 @@ pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, la
                 if sdf(Label::Pulp, centre).abs() < tooth.abs() {
                     0
                 } else if !near_enamel {
-                    3
+                    // In bone where bone lies within ROOT_IN_BONE_MM along an axis.
+                    let in_bone = (1..=12).any(|i| {
+                        let t = f64::from(i) * ROOT_IN_BONE_MM / 12.0;
+                        [DVec3::X, DVec3::Y, DVec3::Z, -DVec3::X, -DVec3::Y, -DVec3::Z].iter().any(|d| matches!(phantom.label_at(centre + *d * t), Label::BoneCancellous | Label::BoneCortical))
+                    });
+                    if in_bone { 4 } else { 3 }
                 } else if tooth < -0.05 {
                     1
                 } else {
