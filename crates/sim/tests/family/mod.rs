@@ -201,13 +201,15 @@ const PULP_APEX_MM: f64 = 0.8;
 /// [`region_errors`]' dentin: a root is in bone where bone lies this near (mm; the phantom's
 /// ligament is 0.2 mm).
 const ROOT_IN_BONE_MM: f64 = 0.5;
+/// ... and by the cortex where cortical bone lies within this (mm) too.
+const ROOT_BY_CORTEX_MM: f64 = 1.0;
 
 /// Where a tissue's normal error lies: its triangles sorted into the tooth's regions by the
 /// analytic SDFs at their centres (`h`: the scan's finest spacing). Enamel: the DEJ, the outer
 /// surface where the enamel is thinner than `h` (the cervical edge), the rest of the outer
 /// surface, and triangles with no true enamel within 2 `h` (slivers); dentin: the pulp's wall,
 /// the DEJ, the outer surface within 2 `h` of the enamel (its edge) and the rest of the root,
-/// clear of bone and in it;
+/// clear of bone, in it, and in it by the cortex;
 /// pulp: its chamber, its thin parts (canals, horns) and their ends at the root's outside.
 /// Per region: triangles, mean angle (degrees).
 pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, label: Label, h: f64) -> Vec<(&'static str, usize, f64)> {
@@ -215,7 +217,7 @@ pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, la
     let names: &[&'static str] = match label {
         Label::Enamel => &["DEJ", "outer thin", "outer", "no enamel within 2h"],
         Label::Pulp => &["chamber", "thin (canal, horn)", "apex"],
-        _ => &["pulp wall", "DEJ", "root at enamel edge", "root", "root in bone"],
+        _ => &["pulp wall", "DEJ", "root at enamel edge", "root", "root in bone", "root by cortex"],
     };
     let mut bins: Vec<(usize, f64)> = vec![(0, 0.0); names.len()];
     let own = |p: DVec3| sdf(label, p);
@@ -258,7 +260,11 @@ pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, la
                         let t = f64::from(i) * ROOT_IN_BONE_MM / 12.0;
                         [DVec3::X, DVec3::Y, DVec3::Z, -DVec3::X, -DVec3::Y, -DVec3::Z].iter().any(|d| matches!(phantom.label_at(centre + *d * t), Label::BoneCancellous | Label::BoneCortical))
                     });
-                    if in_bone { 4 } else { 3 }
+                    let by_cortex = (1..=20).any(|i| {
+                        let t = f64::from(i) * ROOT_BY_CORTEX_MM / 20.0;
+                        [DVec3::X, DVec3::Y, DVec3::Z, -DVec3::X, -DVec3::Y, -DVec3::Z].iter().any(|d| matches!(phantom.label_at(centre + *d * t), Label::BoneCortical))
+                    });
+                    if in_bone && by_cortex { 5 } else if in_bone { 4 } else { 3 }
                 } else if tooth < -0.05 {
                     1
                 } else {
