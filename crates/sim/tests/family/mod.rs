@@ -204,6 +204,11 @@ const ROOT_IN_BONE_MM: f64 = 0.5;
 /// ... and by the cortex where cortical bone lies within this (mm) too.
 const ROOT_BY_CORTEX_MM: f64 = 1.0;
 
+/// `steps` points along each of the six axis directions from `centre`, out to `reach` (mm).
+fn along_axes(centre: DVec3, reach: f64, steps: u32) -> impl Iterator<Item = DVec3> {
+    (1..=steps).flat_map(move |i| [DVec3::X, DVec3::Y, DVec3::Z, -DVec3::X, -DVec3::Y, -DVec3::Z].map(|d| centre + d * (f64::from(i) * reach / f64::from(steps))))
+}
+
 /// Where a tissue's normal error lies: its triangles sorted into the tooth's regions by the
 /// analytic SDFs at their centres (`h`: the scan's finest spacing). Enamel: the DEJ, the outer
 /// surface where the enamel is thinner than `h` (the cervical edge), the rest of the outer
@@ -226,7 +231,7 @@ pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, la
         if label == Label::Pulp {
             // Thin where the pulp is nowhere deeper than PULP_THIN_MM within reach along an
             // axis; an apex where such a part comes within PULP_APEX_MM of the root's outside.
-            let deepest = (0..=24).flat_map(|i| [DVec3::X, DVec3::Y, DVec3::Z, -DVec3::X, -DVec3::Y, -DVec3::Z].map(|d| own(centre + d * (f64::from(i) * 0.05)))).fold(f64::INFINITY, f64::min);
+            let deepest = along_axes(centre, 1.2, 24).map(own).fold(own(centre), f64::min);
             let bin = if deepest < -PULP_THIN_MM { 0 } else if tooth < -PULP_APEX_MM { 1 } else { 2 };
             bins[bin].0 += 1;
             bins[bin].1 += angle;
@@ -234,10 +239,7 @@ pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, la
         }
         // Enamel within 2 h along an axis: the enamel's SDF, max(tooth, −core), is ~0 all over
         // the root, so it cannot tell the root from the enamel's edge by itself.
-        let near_enamel = (-40..=40).any(|i| {
-            let t = f64::from(i) * h / 20.0;
-            [DVec3::X, DVec3::Y, DVec3::Z].iter().any(|d| sdf(Label::Enamel, centre + *d * t) < -0.005)
-        });
+        let near_enamel = std::iter::once(centre).chain(along_axes(centre, 2.0 * h, 40)).any(|p| sdf(Label::Enamel, p) < -0.005);
         let bin = match label {
             Label::Enamel => {
                 let core = sdf(Label::Dentin, centre);
@@ -256,15 +258,9 @@ pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, la
                     0
                 } else if !near_enamel {
                     // In bone where bone lies within ROOT_IN_BONE_MM along an axis.
-                    let in_bone = (1..=12).any(|i| {
-                        let t = f64::from(i) * ROOT_IN_BONE_MM / 12.0;
-                        [DVec3::X, DVec3::Y, DVec3::Z, -DVec3::X, -DVec3::Y, -DVec3::Z].iter().any(|d| matches!(phantom.label_at(centre + *d * t), Label::BoneCancellous | Label::BoneCortical))
-                    });
-                    let by_cortex = (1..=20).any(|i| {
-                        let t = f64::from(i) * ROOT_BY_CORTEX_MM / 20.0;
-                        [DVec3::X, DVec3::Y, DVec3::Z, -DVec3::X, -DVec3::Y, -DVec3::Z].iter().any(|d| matches!(phantom.label_at(centre + *d * t), Label::BoneCortical))
-                    });
-                    if in_bone && by_cortex { 5 } else if in_bone { 4 } else { 3 }
+                    let in_bone = along_axes(centre, ROOT_IN_BONE_MM, 12).any(|p| matches!(phantom.label_at(p), Label::BoneCancellous | Label::BoneCortical));
+                    let by_cortex = || along_axes(centre, ROOT_BY_CORTEX_MM, 20).any(|p| phantom.label_at(p) == Label::BoneCortical);
+                    if in_bone && by_cortex() { 5 } else if in_bone { 4 } else { 3 }
                 } else if tooth < -0.05 {
                     1
                 } else {
