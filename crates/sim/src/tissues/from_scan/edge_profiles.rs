@@ -7,7 +7,7 @@ use super::*;
 /// The blur (σ, mm) of an edge profile: the tooth's share in bins of [`PROFILE_BIN_VOXELS`] from
 /// [`PROFILE_VOXELS`] inside to as far outside, falling outward. A Gaussian-blurred step falls from
 /// 3/4 to 1/4 over 1.349 σ; read between bins linearly. `None` where the profile does not cross.
-pub(super) fn profile_blur(profile: &[Option<f64>], h: f64) -> Option<f64> {
+fn profile_blur(profile: &[Option<f64>], h: f64) -> Option<f64> {
     let read: Vec<(f64, f64)> = profile.iter().enumerate().filter_map(|(b, t)| t.map(|t| (((b as f64 + 0.5) * PROFILE_BIN_VOXELS - PROFILE_VOXELS) * h, t))).collect();
     let crossing = |level: f64| read.windows(2).find(|w| w[0].1 >= level && w[1].1 < level).map(|w| w[0].0 + (w[1].0 - w[0].0) * (w[0].1 - level) / (w[0].1 - w[1].1));
     let sigma = (crossing(0.25)? - crossing(0.75)?) / 1.349;
@@ -15,7 +15,7 @@ pub(super) fn profile_blur(profile: &[Option<f64>], h: f64) -> Option<f64> {
 }
 
 /// Each bin's median, where it holds at least [`MIN_PROFILE_SAMPLES`] (reordered).
-pub(super) fn binned_medians(samples: &mut [Vec<f32>]) -> Vec<Option<f64>> {
+fn binned_medians(samples: &mut [Vec<f32>]) -> Vec<Option<f64>> {
     samples
         .iter_mut()
         .map(|v| {
@@ -51,23 +51,23 @@ pub(super) fn root_ligament_seen(profile: &[Option<f64>], g_soft: f64) -> Option
 }
 
 /// See [`root_ligament_seen`]: between a fused root's and a 0.2 mm ligament's dip.
-pub(super) const LIGAMENT_DIP: f64 = 0.05;
+const LIGAMENT_DIP: f64 = 0.05;
 /// The roots' profile is fitted from this far inside to this far outside (voxels): further out
 /// it reaches other roots and the jaw's cortex.
-pub(super) const LIGAMENT_FIT_VOXELS: (f64, f64) = (2.0, 3.0);
+const LIGAMENT_FIT_VOXELS: (f64, f64) = (2.0, 3.0);
 
 /// The outer surface's edge profile ([`NestedBuilder::edge_profiles`]) is read this
 /// far (the scan's finest voxels) on each side, in bins this wide, each from at least this many
 /// voxels.
-pub(super) const PROFILE_VOXELS: f64 = 4.0;
-pub(super) const PROFILE_BIN_VOXELS: f64 = 0.25;
-pub(super) const MIN_PROFILE_SAMPLES: usize = 16;
+const PROFILE_VOXELS: f64 = 4.0;
+const PROFILE_BIN_VOXELS: f64 = 0.25;
+const MIN_PROFILE_SAMPLES: usize = 16;
 /// The edge profile's bins deeper than one reading this much are whole (1).
-pub(super) const WHOLE_TOOTH_SHARE: f64 = 0.97;
+const WHOLE_TOOTH_SHARE: f64 = 0.97;
 /// Voxels are relabelled by their dentin share only where the tooth holds this much of them:
 /// nearer the surface the share's error, four times the tooth share's (the enamel/dentin contrast
 /// against the enamel/outside one), is too large.
-pub(super) const SEEN_TOOTH_SHARE: f64 = 0.75;
+const SEEN_TOOTH_SHARE: f64 = 0.75;
 
 /// The enamel under the outside's grey that the crown's edge profile shows ([`NestedBuilder::edge_profiles`]).
 pub(super) struct SeenUnderTheOutside {
