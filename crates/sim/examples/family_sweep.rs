@@ -8,7 +8,7 @@
 //! `quiet`: every scan without noise (point spread and integer storage kept): the noise's share.
 //! `regions`: where the enamel's, dentin's and pulp's normal error lies (DEJ, thin cervical
 //! enamel, outer surface, root, pulp wall; the pulp's chamber, its thin parts and their apices),
-//! ours against the sampled resolution floor's. `volumes`: where each
+//! ours against the sampled resolution floor's (with `quiet` or `ideal` as above). `volumes`: where each
 //! tissue's volume error lies (mm³ ours holds and the truth not, and the reverse) by the truth's
 //! nearest interface (pulp wall, outer surface, DEJ), or past our band, sampled on a 0.025 mm grid.
 #[path = "../tests/family/mod.rs"]
@@ -57,6 +57,11 @@ fn main() {
         for mut case in dentsim_cbct::phantom::family(!quick) {
             if std::env::args().any(|a| a == "quiet") {
                 case.spec.noise_sigma = 0.0;
+            }
+            if std::env::args().any(|a| a == "ideal") {
+                case.spec.noise_sigma = 0.0;
+                case.spec.blur_sigma_mm = 0.0;
+                case.spec.integer = None;
             }
             if only.is_empty() || only.iter().any(|o| case.name.contains(o.as_str())) {
                 if let Err(e) = family::print_regions(&case, 0.05) {

@@ -653,16 +653,27 @@ impl VoxelMask {
     }
 }
 
-/// Mean-curvature flow of a smooth inside-fraction field (x fastest), `steps` explicit steps of
-/// `dt` (in squared units of the smallest spacing; stable up to ≈ 1/6): each level set moves
+/// How [`curvature_flow`] runs: `steps` explicit steps of `dt` (in squared units of the
+/// smallest spacing; stable up to ≈ 1/6), each voxel held on its side of 0.5 (`inside`) by at
+/// least `side`; `held` voxels (none if empty) keep their value.
+pub struct Flow<'a> {
+    pub inside: &'a [bool],
+    pub side: f32,
+    pub held: &'a [bool],
+    pub steps: usize,
+    pub dt: f32,
+}
+
+/// Mean-curvature flow of a smooth inside-fraction field (x fastest): each level set moves
 /// along its normal by its mean curvature, so a terraced or noisy surface relaxes toward a
 /// smooth one while a flat wall stays put. After every step each voxel is held on its side of
-/// 0.5 (`inside`) by at least `side`, so no voxel changes side and thin walls keep their
-/// topology. Only the band 0.05…0.95 moves (the rest has no surface to smooth). The flow shrinks
-/// convex parts by about their curvature times the flow's time; the caller restores the volume.
-pub fn curvature_flow(values: &mut [f32], dims: [usize; 3], spacing: [f64; 3], inside: &[bool], side: f32, steps: usize, dt: f32) {
+/// 0.5, so no voxel changes side and thin walls keep their topology. Only the band 0.05…0.95
+/// moves (the rest has no surface to smooth). The flow shrinks convex parts by about their
+/// curvature times the flow's time; the caller restores the volume.
+pub fn curvature_flow(values: &mut [f32], dims: [usize; 3], spacing: [f64; 3], flow: &Flow<'_>) {
     let [nx, ny, nz] = dims;
-    if nx < 3 || ny < 3 || nz < 3 || values.len() != nx * ny * nz || inside.len() != values.len() {
+    let Flow { inside, side, held, steps, dt } = *flow;
+    if nx < 3 || ny < 3 || nz < 3 || values.len() != nx * ny * nz || inside.len() != values.len() || !(held.is_empty() || held.len() == values.len()) {
         return;
     }
     let h = spacing.iter().cloned().fold(f64::INFINITY, f64::min);
@@ -681,7 +692,7 @@ pub fn curvature_flow(values: &mut [f32], dims: [usize; 3], spacing: [f64; 3], i
                 for i in 1..nx - 1 {
                     let n = i + sy * j + sz * k;
                     let c = src[n];
-                    if !(0.05..=0.95).contains(&c) {
+                    if !(0.05..=0.95).contains(&c) || held.get(n) == Some(&true) {
                         continue;
                     }
                     let at = |d: isize| src[(n as isize + d) as usize];
@@ -794,7 +805,7 @@ mod tests {
             (crate::tissues::test_shapes::radial_normal_error(&grid.to_mesh(), centre, |_| true), grid.volume())
         };
         let (before_deg, before_mm3) = surface(&values);
-        curvature_flow(&mut values, dims, [h; 3], &inside, 0.02, 4, 0.1);
+        curvature_flow(&mut values, dims, [h; 3], &Flow { inside: &inside, side: 0.02, held: &[], steps: 4, dt: 0.1 });
         assert!(values.iter().zip(&inside).all(|(v, i)| (*v > 0.5) == *i), "a voxel changed side");
         let (after_deg, after_mm3) = surface(&values);
         let truth = 4.0 / 3.0 * std::f64::consts::PI * r * r * r;

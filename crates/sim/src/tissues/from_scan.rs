@@ -327,7 +327,7 @@ impl TissuesFromScan {
         let source = format!("{} {}", scan.source.format, scan.source.path);
         let mut model = TissueModel::new(source, Some(self.fdi));
         let mut tissues = Vec::new();
-        let mut builder = NestedBuilder { scan: &tooth_scan, labels: &tooth_labels, calibration: &calibration, voxel_size_mm: self.voxel_size_mm, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread };
+        let mut builder = NestedBuilder { scan: &tooth_scan, labels: &tooth_labels, calibration: &calibration, voxel_size_mm: self.voxel_size_mm, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None };
         let mut built = 0.0;
         let grids = builder.build(&mut |name| {
             built += 1.0;
@@ -473,6 +473,14 @@ const GREY_SIDE: f32 = 0.02;
 /// 0.1 voxel² at 0.2 mm): the family's dentin normals 6.61 → 5.86°, enamel 5.52 → 5.08°.
 /// Fixed in mm², not voxels², so coarse scans' walls are not rounded further than fine ones'.
 const FLOW_MM2: f64 = 0.016;
+/// Rings of voxels each side of the tooth's outer border that take the grey's share where no
+/// bone is near (the outside one medium), held by no flow. The scanner's blur spreads the
+/// border over more than a voxel, and with one ring the blurred labels' 0.92 a ring further on
+/// bent the surface toward the grid: the wax molar's outer enamel, noise-free, 2.6° where the
+/// normalised grey's own surface has 1.3° (1.8° without the blur). Three rings and no flow
+/// there: 1.6°; with noise 2.7 → 1.9°, its root 3.2 → 2.9°, the family's enamels 0.1–0.5°
+/// better. Beside bone the second ring out reads the bone's blur.
+const OUTER_RINGS: usize = 3;
 
 /// The tissue outside the tooth about voxel `centre`, air or soft tissue, as
 /// [`Calibration::outside_of`] reads it from the grey of the voxels within 2 steps that `clear`
@@ -548,6 +556,21 @@ struct NestedBuilder<'a> {
     edge_blur_mm: Option<f64>,
     /// The roots' border in bone, once the edge profile is read.
     roots: RootBorder,
+    /// Where bone lies near the tooth's border ([`SeenUnderTheOutside::beside_bone`]), once
+    /// the edge profile is read.
+    beside_bone: Option<&'a [bool]>,
+}
+
+/// A union's field on the scan's grid ([`NestedBuilder::union_field`]).
+struct UnionField {
+    values: Vec<f32>,
+    /// Each voxel's side: inside the union or not.
+    inside: Vec<bool>,
+    /// The labels' codes the union holds.
+    codes: Vec<u8>,
+    /// Voxels whose value is the grey's share across the tooth's outer border where no bone is
+    /// near ([`OUTER_RINGS`]): the flow leaves them as they are.
+    by_outer_grey: Vec<bool>,
 }
 
 #[derive(Clone, Debug)]
@@ -572,7 +595,7 @@ impl NestedBuilder<'_> {
     /// measure's reference grey); else the pulp's border is the labels'.
     fn union(&self, labels: &[Label], pulp_grey: Option<f64>) -> Result<Option<LevelSet>> {
         match self.union_field(labels, pulp_grey, None) {
-            Some((field, inside, codes)) => self.union_grid(&field, &inside, &codes).map(Some),
+            Some(union) => self.union_grid(&union).map(Some),
             None => Ok(None),
         }
     }
@@ -580,7 +603,7 @@ impl NestedBuilder<'_> {
     /// The field of [`Self::union`] on the scan's grid, its voxels' sides and the labels' codes;
     /// `dentin_share`: the dentin's share of the voxels (NaN where not known) taken at the
     /// enamel/dentin border instead of the two tissues' mix ([`Self::edge_profiles`]).
-    fn union_field(&self, labels: &[Label], pulp_grey: Option<f64>, dentin_share: Option<&[f32]>) -> Option<(Vec<f32>, Vec<bool>, Vec<u8>)> {
+    fn union_field(&self, labels: &[Label], pulp_grey: Option<f64>, dentin_share: Option<&[f32]>) -> Option<UnionField> {
         let codes: Vec<u8> = labels.iter().filter(|l| self.present(**l)).map(|&l| l as u8).collect();
         if codes.is_empty() {
             return None;
@@ -591,19 +614,19 @@ impl NestedBuilder<'_> {
         for (v, inside) in field.iter_mut().zip(&inside) {
             *v = if *inside { v.max(FLAT_INSIDE) } else { v.min(1.0 - FLAT_INSIDE) };
         }
-        self.place_by_grey(&mut field, &inside, pulp_grey, dentin_share);
+        let by_outer_grey = self.place_by_grey(&mut field, &inside, pulp_grey, dentin_share);
         // The grey's noise would roughen the surface at the scan's voxel scale: smoothed once
         // more, each voxel kept on its side.
         gaussian_blur(&mut field, self.scan.dims, [GREY_BLUR_VOXELS; 3]);
         for (v, inside) in field.iter_mut().zip(&inside) {
             *v = if *inside { v.max(0.5 + GREY_SIDE) } else { v.min(0.5 - GREY_SIDE) };
         }
-        Some((field, inside, codes))
+        Some(UnionField { values: field, inside, codes, by_outer_grey })
     }
 
     /// The level set of a union's field, finished.
-    fn union_grid(&self, field: &[f32], inside: &[bool], codes: &[u8]) -> Result<LevelSet> {
-        match self.union_grid_unsettled(field, inside, codes)? {
+    fn union_grid(&self, union: &UnionField) -> Result<LevelSet> {
+        match self.union_grid_unsettled(union)? {
             (mut grid, Some(trilinear)) => {
                 self.settle(&mut grid, &trilinear, None)?;
                 Ok(grid)
@@ -614,14 +637,19 @@ impl NestedBuilder<'_> {
 
     /// The level set of a union's field; the tooth's and the core's with its surface still to
     /// be moved to its volume ([`Self::settle`]), and the field's trilinear iso-surface for that.
-    fn union_grid_unsettled(&self, field: &[f32], inside: &[bool], codes: &[u8]) -> Result<(LevelSet, Option<Trilinear>)> {
+    fn union_grid_unsettled(&self, union: &UnionField) -> Result<(LevelSet, Option<Trilinear>)> {
+        let UnionField { values: field, inside, codes, by_outer_grey } = union;
         if codes.contains(&(Label::Dentin as u8)) {
-            // Tooth and core (their roots share a surface, so both flow alike); the volume is
-            // the field's before the flow.
+            // Tooth and core; the volume is the field's before the flow. The tooth's field where
+            // it is the outside's grey is as smooth as the scan and stays; the core flows
+            // everywhere, its DEJ beside its root (held there as well, the DEJ by the enamel's
+            // edge came out worse: the wax molar's dentin there 8.9 → 10.9°).
             let mut flowed = field.to_vec();
             let h = self.scan.min_spacing();
             let (steps, dt) = flow_steps(FLOW_MM2 / (h * h));
-            field::curvature_flow(&mut flowed, self.scan.dims, self.scan.spacing, inside, GREY_SIDE, steps, dt);
+            let held: &[bool] = if codes.contains(&(Label::Enamel as u8)) { by_outer_grey } else { &[] };
+            let flow = field::Flow { inside, side: GREY_SIDE, held, steps, dt };
+            field::curvature_flow(&mut flowed, self.scan.dims, self.scan.spacing, &flow);
             let grid = self.level_set(&flowed, 0.5)?;
             Ok((grid, Some(self.trilinear(field)?)))
         } else if codes.iter().all(|&c| c == Label::Caries as u8) {
@@ -674,6 +702,13 @@ impl NestedBuilder<'_> {
         let Some(sigma) = seen.edge_blur_mm else { return 0.0 };
         let clear = |p: glam::DVec3| self.voxel_at(p).is_none_or(|n| !seen.beside_bone[n]);
         (sigma * sigma + self.grey_blur_variance()) * surface.total_mean_curvature_where(clear)
+    }
+
+    /// How many rings of voxels each side of the tooth's outer border take the grey's share
+    /// where no bone is near: [`OUTER_RINGS`] once the edge profile has told where bone is, one
+    /// before.
+    fn outer_rings(&self) -> usize {
+        if self.beside_bone.is_some() { OUTER_RINGS } else { 1 }
     }
 
     /// The variance (mm²) of the blur [`GREY_BLUR_VOXELS`] gives the field placed by grey.
@@ -730,7 +765,7 @@ impl NestedBuilder<'_> {
     /// voxel by then runs through the voxels at sub-voxel positions, and the scan grid's terraces
     /// go. The pulp's border takes the voxels beside those too. The field stays on each voxel's
     /// side of 0.5, so no voxel changes side and thin walls keep their topology.
-    fn place_by_grey(&self, field: &mut [f32], inside: &[bool], pulp_grey: Option<f64>, dentin_share: Option<&[f32]>) {
+    fn place_by_grey(&self, field: &mut [f32], inside: &[bool], pulp_grey: Option<f64>, dentin_share: Option<&[f32]>) -> Vec<bool> {
         use rayon::prelude::*;
         let [nx, ny, nz] = self.scan.dims;
         let labels = &self.labels.labels;
@@ -745,6 +780,13 @@ impl NestedBuilder<'_> {
             }
         };
         const SIDE: f32 = GREY_SIDE;
+        let outside = |code: u8| code <= Label::BoneCortical as u8;
+        let hard = |code: u8| code == Label::Enamel as u8 || code == Label::Dentin as u8;
+        // Voxel `n` with `partner` across the tooth's outer border: the tooth's side hard, the other outside.
+        let outer_pair = |n: usize, partner: u8| if inside[n] { hard(labels[n]) && outside(partner) } else { outside(labels[n]) && hard(partner) };
+        // Where no bone is near, the outside is one medium and the tooth's grey falls to it
+        // as the scanner's blur spreads the border: the grey is the share there.
+        let clear_of_bone = |n: usize| self.beside_bone.is_some_and(|beside_bone| !beside_bone[n]);
         // Outside voxels with a face neighbour inside: their grey carries the tooth's blur.
         let by_inside: Vec<bool> = (0..field.len())
             .into_par_iter()
@@ -767,10 +809,11 @@ impl NestedBuilder<'_> {
         // spreads its edge over more than a voxel, so those voxels still hold a share of the other
         // tissue where the blurred labels would say 0.92 or 0.08; with their grey the field
         // follows the scan's smooth edge (the family's pulp normals: 18 of 20 better by up to
-        // 0.7°, none worse by more than 0.1°). Not the tooth's: beside a root, the second ring
-        // out reads the bone's blur (the tilted jaw incisor's dentin +1.3 → +3.1 %), and the
-        // enamels fell 0.2–0.8 %.
-        let rings = if pulp_grey.is_some() { 2 } else { 1 };
+        // 0.7°, none worse by more than 0.1°). The tooth's and core's outer border takes
+        // OUTER_RINGS, only where no bone is near (beside a root, the second ring out reads the
+        // bone's blur: the tilted jaw incisor's dentin +1.3 → +3.1 %) and only across it (the
+        // core's DEJ keeps its one ring of the dentin's share).
+        let rings = if pulp_grey.is_some() { 2 } else { self.outer_rings() };
         let mut partners = across;
         for _ in 1..rings {
             let next: Vec<u8> = (0..field.len())
@@ -779,8 +822,12 @@ impl NestedBuilder<'_> {
                     if partners[n] != NONE {
                         return partners[n];
                     }
+                    if pulp_grey.is_none() && !clear_of_bone(n) {
+                        return NONE;
+                    }
                     let mut counts = [0u8; 16];
-                    for m in face_neighbours(n, [nx, ny, nz]).into_iter().flatten().filter(|&m| inside[m] == inside[n] && partners[m] != NONE) {
+                    let takes = |m: usize| inside[m] == inside[n] && partners[m] != NONE && (pulp_grey.is_some() || outer_pair(n, partners[m]));
+                    for m in face_neighbours(n, [nx, ny, nz]).into_iter().flatten().filter(|&m| takes(m)) {
                         counts[(partners[m] as usize).min(15)] += 1;
                     }
                     majority(&counts)
@@ -800,8 +847,6 @@ impl NestedBuilder<'_> {
             .filter_map(|n| {
                 let partner = Some(partners[n]).filter(|&p| p != NONE)?;
                 let outside_grey = |centre: usize| -> Option<f64> { outside_about(self.scan, cal, centre, clear).map(|l| cal.peak(l)) };
-                let outside = |code: u8| code <= Label::BoneCortical as u8;
-                let hard = |code: u8| code == Label::Enamel as u8 || code == Label::Dentin as u8;
                 let on_its_side = |f: f32| if inside[n] { f.clamp(0.5 + SIDE, 1.0) } else { f.clamp(0.0, 0.5 - SIDE) };
                 if let Some(share) = dentin_share.map(|s| s[n]).filter(|s| !s.is_nan() && hard(labels[n]) && hard(partner)) {
                     // Inside is the dentin (the core's union).
@@ -840,9 +885,12 @@ impl NestedBuilder<'_> {
                 Some((n, on_its_side(f)))
             })
             .collect();
+        let mut by_outer_grey = vec![false; field.len()];
         for (n, f) in updates {
             field[n] = f;
+            by_outer_grey[n] = pulp_grey.is_none() && outer_pair(n, partners[n]) && clear_of_bone(n);
         }
+        by_outer_grey
     }
 
     /// Moves `grid`'s surface along its normals until it encloses the tissue's partial-volume
@@ -985,13 +1033,13 @@ impl NestedBuilder<'_> {
                 // the family), with the pulp's grey its measure found; its surface waits for
                 // the blur the edge profile reads.
                 let measure = enclosed_volume(this.scan, this.labels, Pulp, Dentin, this.calibration);
-                let pulp = this.union_field(&[Pulp], measure.as_ref().map(|m| m.tissue_grey), None).map(|(field, _, _)| field);
+                let pulp = this.union_field(&[Pulp], measure.as_ref().map(|m| m.tissue_grey), None).map(|union| union.values);
                 Ok((pulp, measure, this.union(&[Caries], None)?))
             },
             || -> Result<_> {
-                let Some((field, inside, codes)) = this.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) else { return Ok(None) };
-                let profiles = this.edge_profiles(&field)?;
-                Ok(Some(((field, inside, codes), profiles)))
+                let Some(union) = this.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) else { return Ok(None) };
+                let profiles = this.edge_profiles(&union.values)?;
+                Ok(Some((union, profiles)))
             },
         );
         let (pulp_field, measure, caries) = inner?;
@@ -1000,29 +1048,35 @@ impl NestedBuilder<'_> {
             None => (None, None, RootBorder::Unread),
         };
         let edge_blur_mm = seen.as_ref().and_then(|seen| seen.edge_blur_mm);
-        let this = &NestedBuilder { fits: Vec::new(), roots, edge_blur_mm, ..*self };
+        let beside_bone = seen.as_ref().map(|seen| seen.beside_bone.as_slice());
+        let this = &NestedBuilder { fits: Vec::new(), roots, edge_blur_mm, beside_bone, ..*self };
         // The core from labels that see the enamel under the outside's grey (the tooth's field
         // tells how far the outside's grey reaches each voxel).
         let core = || -> Result<Option<LevelSet>> {
             let Some(seen) = seen.as_ref() else { return this.union(&[Dentin, Pulp, Caries], None) };
             let with_seen = NestedBuilder { labels: &seen.labels, fits: Vec::new(), ..*this };
-            let Some((field, inside, codes)) = with_seen.union_field(&[Dentin, Pulp, Caries], None, Some(&seen.dentin_share)) else { return Ok(None) };
-            let (mut core, trilinear) = with_seen.union_grid_unsettled(&field, &inside, &codes)?;
+            let Some(union) = with_seen.union_field(&[Dentin, Pulp, Caries], None, Some(&seen.dentin_share)) else { return Ok(None) };
+            let (mut core, trilinear) = with_seen.union_grid_unsettled(&union)?;
             if let Some(trilinear) = trilinear {
                 this.settle(&mut core, &trilinear, Some(seen))?;
             }
             Ok(Some(core))
         };
         // The tooth's field was placed by grey before its edge profile was read: roots fused to
-        // their bone take the bone as their partner, and roots behind a ligament are read
-        // through the bone's blur, so it is placed again.
-        let tooth = || match (&tooth_field, roots) {
-            (None, _) => Ok(None),
-            (Some((field, inside, codes)), RootBorder::Unread) => this.union_grid_unsettled(field, inside, codes).map(Some),
-            (Some(_), _) => match this.union_field(&[Enamel, Dentin, Pulp, Caries], None, None) {
-                Some((field, inside, codes)) => this.union_grid_unsettled(&field, &inside, &codes).map(Some),
-                None => Ok(None),
-            },
+        // their bone take the bone as their partner, roots behind a ligament are read through
+        // the bone's blur, the rings of OUTER_RINGS keep clear of bone, and the voxels of the
+        // enamel's blurred rim that read as dentin are read against the enamel's grey (the
+        // profile's labels; the family's enamels 0.1–0.3° better), so it is placed again.
+        let tooth = || match (&tooth_field, roots, seen.as_ref()) {
+            (None, ..) => Ok(None),
+            (Some(union), RootBorder::Unread, None) => this.union_grid_unsettled(union).map(Some),
+            (Some(_), _, seen) => {
+                let labels = seen.map_or(this.labels, |seen| &seen.labels);
+                match (NestedBuilder { labels, fits: Vec::new(), ..*this }).union_field(&[Enamel, Dentin, Pulp, Caries], None, None) {
+                    Some(union) => this.union_grid_unsettled(&union).map(Some),
+                    None => Ok(None),
+                }
+            }
         };
         let pulp = || -> Result<Option<(LevelSet, Option<VolumeFit>)>> {
             let Some(field) = pulp_field.as_ref() else { return Ok(None) };
@@ -1456,10 +1510,10 @@ mod tests {
     #[test]
     fn the_pulp_placed_by_grey_has_its_normals_and_keeps_its_canal() {
         let (scan, labels, calibration, truth) = pulp_scan();
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread };
+        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None };
         let measure = enclosed_volume(&scan, &labels, Label::Pulp, Label::Dentin, &calibration).unwrap();
         let by_labels = builder.union(&[Label::Pulp], None).unwrap().unwrap();
-        let field = builder.union_field(&[Label::Pulp], Some(measure.tissue_grey), None).unwrap().0;
+        let field = builder.union_field(&[Label::Pulp], Some(measure.tissue_grey), None).unwrap().values;
         let mut by_grey = builder.pulp(&field, Some(&measure), None).unwrap().0;
         let (labels_deg, grey_deg) = (chamber_normal_error(&by_labels), chamber_normal_error(&by_grey));
         // Measured: labels 7.25°, grey 1.30° (1.46° with the grey of the border's first ring of
@@ -1509,9 +1563,9 @@ mod tests {
     #[test]
     fn the_pulp_fitted_through_the_blur_lies_nearer_the_analytic_pulp() {
         let (scan, labels, calibration, truth) = pulp_scan();
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread };
+        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None };
         let measure = enclosed_volume(&scan, &labels, Label::Pulp, Label::Dentin, &calibration).unwrap();
-        let field = builder.union_field(&[Label::Pulp], Some(measure.tissue_grey), None).unwrap().0;
+        let field = builder.union_field(&[Label::Pulp], Some(measure.tissue_grey), None).unwrap().values;
         // The scan's blur as an edge profile reads it: the discrete kernel's σ (0.46 voxel) and
         // the voxel's box.
         let edge_blur = ((0.46f64 * 0.3).powi(2) + 0.3f64.powi(2) / 12.0).sqrt();
@@ -1638,8 +1692,8 @@ mod tests {
         // As the pipeline: peeled, then the dentin's specks (the blurred enamel's rim) given to the enamel.
         peel_blurred_rim(&scan, &mut labels, &calibration);
         keep_largest_component(&mut labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread };
-        let (tooth_field, ..) = builder.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap();
+        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None };
+        let tooth_field = builder.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap().values;
         let seen = builder.edge_profiles(&tooth_field).unwrap().seen.expect("the edge profile is read");
         let made = (blur * blur + 1.0 / 12.0).sqrt() * h;
         let read = seen.edge_blur_mm.expect("a blur is read");
@@ -1647,6 +1701,40 @@ mod tests {
         assert!(!seen.beside_bone.iter().any(|&b| b), "no voxel is beside bone");
         assert!((read / made - 1.0).abs() < 0.15, "blur made {made:.3} mm, read {read:.3} mm");
     }
+    /// A crown in air blurred by a voxel (as the family's scans): where no bone is near, the
+    /// tooth's outer surface comes near the normals of the normalised grey's own surface (the
+    /// blur's, not sharpened); with one ring of voxels placed by grey, as before its edge
+    /// profile is read, the blurred labels a ring further on bend it toward the grid.
+    #[test]
+    fn a_crown_in_air_has_the_normals_of_its_grey() {
+        let (blur, h) = (1.0, 0.2);
+        let centre = DVec3::new(4.61, 4.68, 4.72);
+        let (scan, mut labels, calibration) = cap_scan_in(Label::Air, blur, h, (centre, 3.2), (centre, 2.0));
+        // As the pipeline: peeled, the specks given to the enamel, then the edge profile's labels.
+        peel_blurred_rim(&scan, &mut labels, &calibration);
+        keep_largest_component(&mut labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
+        let first = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None };
+        let seen = first.edge_profiles(&first.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap().values).unwrap().seen.expect("the edge profile is read");
+        let tooth_normals = |read: bool| {
+            let (edge_blur_mm, beside_bone) = if read { (seen.edge_blur_mm, Some(seen.beside_bone.as_slice())) } else { (None, None) };
+            let builder = NestedBuilder { labels: &seen.labels, edge_blur_mm, beside_bone, fits: Vec::new(), ..first };
+            let grid = builder.union_grid(&builder.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap()).unwrap();
+            (crate::tissues::test_shapes::radial_normal_error(&grid.to_mesh(), centre, |_| true), builder.outer_rings())
+        };
+        let ((ours, rings), (one_ring, _)) = (tooth_normals(true), tooth_normals(false));
+        let (air, enamel) = (calibration.peak(Label::Air), calibration.peak(Label::Enamel));
+        let grey: Vec<f32> = scan.values.iter().map(|&v| ((f64::from(v) - air) / (enamel - air)).clamp(0.0, 1.0) as f32).collect();
+        let field = field::GridField { dims: scan.dims, index_to_world: scan.index_to_world(), values: &grey };
+        let of_grey = field::level_set_from_field_with(&field, field::Kernel::CubicBSpline, 0.5, 0.05, 3.0).unwrap();
+        let of_grey = crate::tissues::test_shapes::radial_normal_error(&of_grey.to_mesh(), centre, |_| true);
+        // Measured: ours 0.55° (3 rings), one ring 1.32°, the grey's own 0.46°. (Blurred by
+        // two voxels, 0.1 mm: 3.0°, 3.4°, 0.39°: the threshold's labels lie a voxel out there,
+        // and the field holds each voxel to their side.)
+        println!("outer normals: ours {ours:.2}° ({rings} rings), one ring {one_ring:.2}°, the grey's own {of_grey:.2}°");
+        assert!(ours < 0.6 * one_ring, "ours {ours:.2}° vs one ring's {one_ring:.2}°");
+        assert!(ours < of_grey + 0.3, "ours {ours:.2}° vs the grey's {of_grey:.2}°");
+    }
+
     const TOOTH: (DVec3, f64) = (DVec3::new(4.65, 4.65, 4.65), 3.0);
     const CORE: (DVec3, f64) = (DVec3::new(4.65, 4.65, 3.95), 2.7);
 
@@ -1694,10 +1782,10 @@ mod tests {
     #[test]
     fn the_core_sees_the_enamel_the_outside_hides() {
         let (scan, labels, calibration) = cap_scan();
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread };
+        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None };
         // The true cap's thickness over a point (the tooth's depth plus the core's distance).
         let thickness = |p: DVec3| (TOOTH.1 - p.distance(TOOTH.0)) + (p.distance(CORE.0) - CORE.1);
-        let (tooth_field, ..) = builder.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap();
+        let tooth_field = builder.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap().values;
         let SeenUnderTheOutside { labels: seen, dentin_share: share, .. } = builder.edge_profiles(&tooth_field).unwrap().seen.expect("the edge profile is read");
         // Voxels whose centre lies in the true cap where it is thinner than two voxels.
         let centre = |n: usize| DVec3::new((n % 32) as f64, ((n / 32) % 32) as f64, (n / 1024) as f64) * 0.3;
@@ -1716,8 +1804,7 @@ mod tests {
         // than 0.6 mm above the rim): normals against the core ball's, and mean distance.
         let seen_builder = NestedBuilder { labels: &seen, fits: Vec::new(), ..builder };
         let core_of = |b: &NestedBuilder, share: Option<&[f32]>| {
-            let (field, inside, codes) = b.union_field(&[Label::Dentin], None, share).unwrap();
-            b.union_grid(&field, &inside, &codes).unwrap()
+            b.union_grid(&b.union_field(&[Label::Dentin], None, share).unwrap()).unwrap()
         };
         let (old, new) = (core_of(&builder, None), core_of(&seen_builder, Some(&share)));
         let under_thin_cap = |p: DVec3| p.distance(TOOTH.0) < TOOTH.1 - 0.03 && thickness(p) < 0.6 && p.z > CORE.0.z;
