@@ -1527,7 +1527,7 @@ mod tests {
     #[test]
     fn the_pulp_placed_by_grey_has_its_normals_and_keeps_its_canal() {
         let (scan, labels, calibration, truth) = pulp_scan();
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None };
+        let builder = builder_of(&scan, &labels, &calibration);
         let measure = enclosed_volume(&scan, &labels, Label::Pulp, Label::Dentin, &calibration).unwrap();
         let by_labels = builder.union(&[Label::Pulp], None).unwrap().unwrap();
         let field = builder.union_field(&[Label::Pulp], Some(measure.tissue_grey), None).unwrap().values;
@@ -1580,7 +1580,7 @@ mod tests {
     #[test]
     fn the_pulp_fitted_through_the_blur_lies_nearer_the_analytic_pulp() {
         let (scan, labels, calibration, truth) = pulp_scan();
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None };
+        let builder = builder_of(&scan, &labels, &calibration);
         let measure = enclosed_volume(&scan, &labels, Label::Pulp, Label::Dentin, &calibration).unwrap();
         let field = builder.union_field(&[Label::Pulp], Some(measure.tissue_grey), None).unwrap().values;
         // The scan's blur as an edge profile reads it: the discrete kernel's σ (0.46 voxel) and
@@ -1668,6 +1668,22 @@ mod tests {
         (scan, labels, calibration)
     }
 
+    /// A builder of `labels` in `scan` at 0.05 mm, before its edge profile is read.
+    fn builder_of<'a>(scan: &'a Volume, labels: &'a dentsim_cbct::LabelVolume, calibration: &'a Calibration) -> NestedBuilder<'a> {
+        NestedBuilder { scan, labels, calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None }
+    }
+
+    /// [`cap_scan_in`] as the pipeline takes it: peeled, the dentin's specks (the blurred
+    /// enamel's rim) given to the enamel, and what its edge profile reads.
+    fn profiled_cap_scan(outside: Label, blur: f64, h: f64, tooth: (DVec3, f64), core: (DVec3, f64), root: bool) -> (Volume, dentsim_cbct::LabelVolume, Calibration, SeenUnderTheOutside) {
+        let (scan, mut labels, calibration) = cap_scan_in(outside, blur, h, tooth, core, root);
+        peel_blurred_rim(&scan, &mut labels, &calibration);
+        keep_largest_component(&mut labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
+        let first = builder_of(&scan, &labels, &calibration);
+        let seen = first.edge_profiles(&first.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap().values).unwrap().seen.expect("the edge profile is read");
+        (scan, labels, calibration, seen)
+    }
+
     /// A crown blurred by two voxels (a fine scan's): the segmentation's threshold puts its
     /// labels about a voxel outside the enamel's surface; peeled, the border between the tooth's
     /// voxels and the outside's lies on it.
@@ -1708,13 +1724,7 @@ mod tests {
         let (blur, h) = (2.0, 0.1);
         // Off the grid's lattice, so that the voxels' distances from the surface spread.
         let centre = DVec3::new(4.61, 4.68, 4.72);
-        let (scan, mut labels, calibration) = cap_scan_in(Label::SoftTissue, blur, h, (centre, 3.2), (centre, 2.0), false);
-        // As the pipeline: peeled, then the dentin's specks (the blurred enamel's rim) given to the enamel.
-        peel_blurred_rim(&scan, &mut labels, &calibration);
-        keep_largest_component(&mut labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None };
-        let tooth_field = builder.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap().values;
-        let seen = builder.edge_profiles(&tooth_field).unwrap().seen.expect("the edge profile is read");
+        let (.., seen) = profiled_cap_scan(Label::SoftTissue, blur, h, (centre, 3.2), (centre, 2.0), false);
         let made = (blur * blur + 1.0 / 12.0).sqrt() * h;
         let read = seen.edge_blur_mm.expect("a blur is read");
         println!("blur made {made:.3} mm (with the voxel's box), read {read:.3} mm; beside bone: {}", seen.beside_bone.iter().filter(|&&b| b).count());
@@ -1729,15 +1739,10 @@ mod tests {
     fn a_crown_in_air_has_the_normals_of_its_grey() {
         let (blur, h) = (1.0, 0.2);
         let centre = DVec3::new(4.61, 4.68, 4.72);
-        let (scan, mut labels, calibration) = cap_scan_in(Label::Air, blur, h, (centre, 3.2), (centre, 2.0), false);
-        // As the pipeline: peeled, the specks given to the enamel, then the edge profile's labels.
-        peel_blurred_rim(&scan, &mut labels, &calibration);
-        keep_largest_component(&mut labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
-        let first = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None };
-        let seen = first.edge_profiles(&first.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap().values).unwrap().seen.expect("the edge profile is read");
+        let (scan, _, calibration, seen) = profiled_cap_scan(Label::Air, blur, h, (centre, 3.2), (centre, 2.0), false);
         let tooth_normals = |read: bool| {
             let (edge_blur_mm, beside_bone) = if read { (seen.edge_blur_mm, Some(seen.beside_bone.as_slice())) } else { (None, None) };
-            let builder = NestedBuilder { labels: &seen.labels, edge_blur_mm, beside_bone, fits: Vec::new(), ..first };
+            let builder = NestedBuilder { edge_blur_mm, beside_bone, ..builder_of(&scan, &seen.labels, &calibration) };
             let grid = builder.union_grid(&builder.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap()).unwrap();
             (crate::tissues::test_shapes::radial_normal_error(&grid.to_mesh(), centre, |_| true), builder.outer_rings())
         };
@@ -1764,16 +1769,12 @@ mod tests {
     fn a_root_in_air_has_the_normals_of_its_grey() {
         // A crown over a root that leaves it by 1.4 mm.
         let (tooth, core) = ((DVec3::new(4.65, 4.65, 5.6), 3.0), (DVec3::new(4.65, 4.65, 3.6), 2.4));
-        let (scan, mut labels, calibration) = cap_scan_in(Label::Air, 1.0, 0.2, tooth, core, true);
-        peel_blurred_rim(&scan, &mut labels, &calibration);
-        keep_largest_component(&mut labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
-        let first = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None };
-        let seen = first.edge_profiles(&first.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap().values).unwrap().seen.expect("the edge profile is read");
+        let (scan, _, calibration, seen) = profiled_cap_scan(Label::Air, 1.0, 0.2, tooth, core, true);
         // The root: the core's surface outside the tooth's ball, clear of the enamel's edge.
         let root = |p: DVec3| p.distance(tooth.0) > tooth.1 + 0.6;
         let root_normals = |read: bool| {
             let (edge_blur_mm, beside_bone) = if read { (seen.edge_blur_mm, Some(seen.beside_bone.as_slice())) } else { (None, None) };
-            let builder = NestedBuilder { labels: &seen.labels, edge_blur_mm, beside_bone, fits: Vec::new(), ..first };
+            let builder = NestedBuilder { edge_blur_mm, beside_bone, ..builder_of(&scan, &seen.labels, &calibration) };
             let grid = builder.union_grid(&builder.union_field(&[Label::Dentin], None, Some(&seen.dentin_share)).unwrap()).unwrap();
             crate::tissues::test_shapes::radial_normal_error(&grid.to_mesh(), core.0, root)
         };
@@ -1835,7 +1836,7 @@ mod tests {
     #[test]
     fn the_core_sees_the_enamel_the_outside_hides() {
         let (scan, labels, calibration) = cap_scan();
-        let builder = NestedBuilder { scan: &scan, labels: &labels, calibration: &calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None };
+        let builder = builder_of(&scan, &labels, &calibration);
         // The true cap's thickness over a point (the tooth's depth plus the core's distance).
         let thickness = |p: DVec3| (TOOTH.1 - p.distance(TOOTH.0)) + (p.distance(CORE.0) - CORE.1);
         let tooth_field = builder.union_field(&[Label::Enamel, Label::Dentin], None, None).unwrap().values;
