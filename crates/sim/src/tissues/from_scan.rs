@@ -651,13 +651,14 @@ impl NestedBuilder<'_> {
             let mut flowed = field.to_vec();
             let h = self.scan.min_spacing();
             let (steps, dt) = flow_steps(FLOW_MM2 / (h * h));
-            let core_held: Vec<bool> = if codes.contains(&(Label::Enamel as u8)) {
-                Vec::new()
+            let core_held: Vec<bool>;
+            let held: &[bool] = if codes.contains(&(Label::Enamel as u8)) || !by_outer_grey.contains(&true) {
+                by_outer_grey
             } else {
                 let by_enamel = within_box(self.labels.labels.iter().map(|&c| c == Label::Enamel as u8).collect(), self.scan.dims, CORE_FLOWS_BY_ENAMEL);
-                by_outer_grey.iter().zip(&by_enamel).map(|(&grey, &enamel)| grey && !enamel).collect()
+                core_held = by_outer_grey.iter().zip(&by_enamel).map(|(&grey, &enamel)| grey && !enamel).collect();
+                &core_held
             };
-            let held: &[bool] = if codes.contains(&(Label::Enamel as u8)) { by_outer_grey } else { &core_held };
             let flow = field::Flow { inside, side: GREY_SIDE, held, steps, dt };
             field::curvature_flow(&mut flowed, self.scan.dims, self.scan.spacing, &flow);
             let grid = self.level_set(&flowed, 0.5)?;
