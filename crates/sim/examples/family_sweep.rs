@@ -11,6 +11,8 @@
 //! ours against the sampled resolution floor's (with `quiet` or `ideal` as above). `volumes`: where each
 //! tissue's volume error lies (mm³ ours holds and the truth not, and the reverse) by the truth's
 //! nearest interface (pulp wall, outer surface, DEJ), or past our band, sampled on a 0.025 mm grid.
+//! `json=FILE`: each case's figures written to FILE as JSON too; `against=FILE`: each tissue's
+//! figures beside those of an earlier run's FILE, with the change (a change measured, case by case).
 #[path = "../tests/family/mod.rs"]
 mod family;
 
@@ -78,6 +80,18 @@ fn main() {
     let quiet = std::env::args().any(|a| a == "quiet");
     // `only=TEXT`: the cases whose name holds TEXT.
     let only: Vec<String> = std::env::args().filter_map(|a| a.strip_prefix("only=").map(str::to_owned)).collect();
+    let json = std::env::args().find_map(|a| a.strip_prefix("json=").map(std::path::PathBuf::from));
+    let against = match std::env::args().find_map(|a| a.strip_prefix("against=").map(std::path::PathBuf::from)) {
+        Some(path) => match std::fs::read_to_string(&path).map_err(|e| e.to_string()).and_then(|text| serde_json::from_str::<serde_json::Value>(&text).map_err(|e| e.to_string())) {
+            Ok(earlier) => Some(earlier),
+            Err(e) => {
+                eprintln!("{}: {e}", path.display());
+                std::process::exit(2);
+            }
+        },
+        None => None,
+    };
+    let mut cases = Vec::new();
     for mut case in dentsim_cbct::phantom::family(!quick) {
         if !only.is_empty() && !only.iter().any(|o| case.name.contains(o.as_str())) {
             continue;
@@ -93,6 +107,10 @@ fn main() {
         match family::run(&case, 0.05) {
             Ok(r) => {
                 family::print(&r);
+                if let Some(earlier) = against.as_ref().and_then(|a| a["cases"].as_array()).and_then(|cases| cases.iter().find(|c| c["name"] == r.name.as_str())) {
+                    print_against(&r, earlier);
+                }
+                cases.push(case_json(&r));
                 if let (true, Some((truth, voxels, measure, offset))) = (std::env::args().any(|a| a == "pulp"), r.pulp) {
                     println!("    pulp: true {truth:.2} mm³, voxels {voxels:.2} ({:+.1} %), measure {measure:.2} ({:+.1} %), offset {offset:+.3} mm", 100.0 * (voxels / truth - 1.0), 100.0 * (measure / truth - 1.0));
                 }
@@ -106,4 +124,39 @@ fn main() {
         }
     }
     println!("{met} of {all} tissues meet the goals: volume {volume}, mean surface distance {surface}, mean normal error {normal}");
+    if let Some(path) = json {
+        let run = serde_json::json!({ "ideal": ideal, "quiet": quiet, "met": met, "of": all, "cases": cases });
+        if let Err(e) = std::fs::write(&path, serde_json::to_string_pretty(&run).expect("plain values")) {
+            eprintln!("{}: {e}", path.display());
+            std::process::exit(2);
+        }
+    }
+}
+
+fn case_json(r: &family::CaseResult) -> serde_json::Value {
+    let tissues: Vec<serde_json::Value> = r
+        .tissues
+        .iter()
+        .map(|t| serde_json::json!({ "tissue": t.label.name(), "volume_error": t.volume_error, "surface_mm": t.surface_mm, "normal_deg": t.normal_deg, "meets_goals": family::meets_goals(t) }))
+        .collect();
+    serde_json::json!({ "name": r.name, "confidence": r.confidence, "seconds": r.seconds, "tissues": tissues })
+}
+
+/// Each tissue's volume error, surface distance and normal error, then → now (change).
+fn print_against(r: &family::CaseResult, earlier: &serde_json::Value) {
+    for t in &r.tissues {
+        let Some(e) = earlier["tissues"].as_array().and_then(|ts| ts.iter().find(|e| e["tissue"] == t.label.name())) else { continue };
+        let (Some(v), Some(d), Some(a)) = (e["volume_error"].as_f64(), e["surface_mm"].as_f64(), e["normal_deg"].as_f64()) else { continue };
+        println!(
+            "    {:7} volume {:+.2} → {:+.2} % | surface {:.4} → {:.4} mm | normals {:.2} → {:.2}° ({:+.2}°)",
+            t.label.name(),
+            100.0 * v,
+            100.0 * t.volume_error,
+            d,
+            t.surface_mm,
+            a,
+            t.normal_deg,
+            t.normal_deg - a
+        );
+    }
 }

@@ -213,7 +213,7 @@ fn along_axes(centre: DVec3, reach: f64, steps: u32) -> impl Iterator<Item = DVe
 /// analytic SDFs at their centres (`h`: the scan's finest spacing). Enamel: the DEJ, the outer
 /// surface where the enamel is thinner than `h` (the cervical edge), the rest of the outer
 /// surface, and triangles with no true enamel within 2 `h` (slivers); dentin: the pulp's wall,
-/// the DEJ, the outer surface within 2 `h` of the enamel (its edge) and the rest of the root,
+/// the DEJ by the enamel's thickness over it (under 0.3 mm, to 0.6 mm, more), the outer surface within 2 `h` of the enamel (its edge) and the rest of the root,
 /// clear of bone, in it, and in it by the cortex;
 /// pulp: its chamber, its thin parts (canals, horns) and their ends at the root's outside.
 /// Per region: triangles, mean angle (degrees).
@@ -222,7 +222,7 @@ pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, la
     let names: &[&'static str] = match label {
         Label::Enamel => &["DEJ", "outer thin", "outer", "no enamel within 2h"],
         Label::Pulp => &["chamber", "thin (canal, horn)", "apex"],
-        _ => &["pulp wall", "DEJ", "root at enamel edge", "root", "root in bone", "root by cortex"],
+        _ => &["pulp wall", "DEJ, enamel < 0.3 mm", "DEJ, enamel 0.3–0.6 mm", "DEJ, thicker enamel", "root at enamel edge", "root", "root in bone", "root by cortex"],
     };
     let mut bins: Vec<(usize, f64)> = vec![(0, 0.0); names.len()];
     let own = |p: DVec3| sdf(label, p);
@@ -260,11 +260,12 @@ pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, la
                     // In bone where bone lies within ROOT_IN_BONE_MM along an axis.
                     let in_bone = along_axes(centre, ROOT_IN_BONE_MM, 12).any(|p| matches!(phantom.label_at(p), Label::BoneCancellous | Label::BoneCortical));
                     let by_cortex = || along_axes(centre, ROOT_BY_CORTEX_MM, 20).any(|p| phantom.label_at(p) == Label::BoneCortical);
-                    if in_bone && by_cortex() { 5 } else if in_bone { 4 } else { 3 }
+                    if in_bone && by_cortex() { 7 } else if in_bone { 6 } else { 5 }
                 } else if tooth < -0.05 {
-                    1
+                    // A DEJ triangle's depth under the outer surface is the enamel's thickness there.
+                    if tooth > -0.3 { 1 } else if tooth > -0.6 { 2 } else { 3 }
                 } else {
-                    2
+                    4
                 }
             }
         };
