@@ -38,6 +38,46 @@ impl TriMesh {
         self.total_mean_curvature_where(|_| true)
     }
 
+    /// The connected piece (triangles joined through shared vertices) enclosing the largest
+    /// volume, alone; points, normals and triangles keep their order.
+    pub fn largest_body(&self) -> TriMesh {
+        let mut parent: Vec<u32> = (0..self.points.len() as u32).collect();
+        fn root(parent: &mut [u32], mut x: u32) -> u32 {
+            while parent[x as usize] != x {
+                parent[x as usize] = parent[parent[x as usize] as usize];
+                x = parent[x as usize];
+            }
+            x
+        }
+        for t in &self.triangles {
+            let a = root(&mut parent, t[0]);
+            for &v in &t[1..] {
+                let b = root(&mut parent, v);
+                parent[b as usize] = a;
+            }
+        }
+        let mut volumes: std::collections::HashMap<u32, f64> = std::collections::HashMap::new();
+        for t in &self.triangles {
+            let [a, b, c] = t.map(|i| self.points[i as usize].as_dvec3());
+            *volumes.entry(root(&mut parent, t[0])).or_insert(0.0) += a.dot(b.cross(c)) / 6.0;
+        }
+        // Ties by the smaller root, so the choice is the same on every run.
+        let Some(body) = volumes.iter().max_by(|a, b| a.1.total_cmp(b.1).then(b.0.cmp(a.0))).map(|(&r, _)| r) else { return TriMesh::default() };
+        let mut index = vec![u32::MAX; self.points.len()];
+        let mut out = TriMesh::default();
+        for (i, p) in self.points.iter().enumerate() {
+            if root(&mut parent, i as u32) == body {
+                index[i] = out.points.len() as u32;
+                out.points.push(*p);
+                if let Some(n) = self.normals.get(i) {
+                    out.normals.push(*n);
+                }
+            }
+        }
+        out.triangles = self.triangles.iter().filter(|t| index[t[0] as usize] != u32::MAX).map(|t| t.map(|i| index[i as usize])).collect();
+        out
+    }
+
     /// [`Self::total_mean_curvature`] over the edges whose midpoint `keep` admits.
     pub fn total_mean_curvature_where(&self, keep: impl Fn(glam::DVec3) -> bool) -> f64 {
         let p = |i: u32| self.points[i as usize].as_dvec3();

@@ -70,6 +70,26 @@ fn total_mean_curvature_of_a_sphere_and_a_torus() {
 }
 
 #[test]
+fn the_largest_body_leaves_the_specks_and_their_curvature() {
+    // A ball of radius 2 and five specks of 0.15 mm: each speck adds 4π·0.15 to ∫H dA, nearly a
+    // quarter of the ball's.
+    let specks: Vec<DVec3> = (0..5).map(|i| DVec3::new(3.0, -2.0 + f64::from(i), 0.0)).collect();
+    let mesh = LevelSet::from_sdf(0.05, HALF_WIDTH, DVec3::splat(-2.6), DVec3::new(3.6, 2.6, 2.6), |p| {
+        specks.iter().map(|&c| (p - c).length() - 0.15).fold(p.length() - 2.0, f64::min)
+    })
+    .unwrap()
+    .to_mesh();
+    let body = mesh.largest_body();
+    let ball = 4.0 * PI * 2.0;
+    assert!(mesh.total_mean_curvature() > ball * 1.15, "the specks' share: {} vs the ball's {ball}", mesh.total_mean_curvature());
+    assert!((body.total_mean_curvature() / ball - 1.0).abs() < 0.01, "the body's {} vs {ball}", body.total_mean_curvature());
+    assert!((body.volume() / (4.0 / 3.0 * PI * 8.0) - 1.0).abs() < 0.01, "volume {}", body.volume());
+    assert!(body.triangles.len() < mesh.triangles.len() && body.points.len() < mesh.points.len());
+    assert!(body.triangles.iter().flatten().all(|&i| (i as usize) < body.points.len()));
+    assert_eq!(TriMesh::default().largest_body(), TriMesh::default());
+}
+
+#[test]
 fn our_sdf_builder_matches_openvdb_sphere() {
     let ours = sphere(DVec3::new(1.0, 0.0, 0.0), 1.5);
     let theirs = LevelSet::sphere(DVec3::new(1.0, 0.0, 0.0), 1.5, H, HALF_WIDTH).unwrap();

@@ -25,7 +25,8 @@ NIfTI int16; see sweep.py), or filled_jaw (custom's molar in a jaw at 0.3 mm, a 
 incisor in a jaw at 0.25 mm, the same filling), or filled_incisor_air (the same incisor in air), or clipped_filling (a molar in air at 0.2 mm
 whose 40000 HU filling the int16 storage clips at 32767, as a saturating scanner would), or clipped_jaw (the same filling
 clipped, in a molar in a jaw at 0.2 mm), or gold_incisor (an unclipped 30000 HU filling, gold's range, in an incisor in air
-at 0.3 mm, its pulp 300 HU, int16 as the sweep's; stored as float32 the same scan was not refused). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+at 0.3 mm, its pulp 300 HU, int16 as the sweep's; stored as float32 the same scan was not refused), or incisor_water_fine
+(custom's incisor in water at 0.1 mm, the point spread two voxels wide). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -36,7 +37,7 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-CUSTOM = CASE in ("custom", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling", "clipped_jaw", "gold_incisor")
+CUSTOM = CASE in ("custom", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling", "clipped_jaw", "gold_incisor", "incisor_water_fine")
 if CASE == "filled_jaw":  # the sweep's molar in a jaw at 0.3 mm with an amalgam filling
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "jaw", 0.3, 40.0, 22, "12000"
 elif CASE == "filled_incisor":  # the sweep's incisor in a jaw at 0.25 mm with one
@@ -49,6 +50,8 @@ elif CASE == "clipped_jaw":  # the same clipped filling in the sweep's molar_jaw
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "jaw", 0.2, 40.0, 805, "40000"
 elif CASE == "gold_incisor":  # the sweep's incisor_air_0.3_300 (its seed) with a gold filling
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "incisor", "air", 0.3, 300.0, 823, "30000"
+elif CASE == "incisor_water_fine":  # the sweep's incisor_water_0.1_40 (its seed)
+    SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "incisor", "water", 0.1, 40.0, 701, ""
 elif CUSTOM:
     SHAPE, MEDIUM = os.environ.get("SHAPE", "molar"), os.environ.get("MEDIUM", "air")
     VOXEL, PULP_HU, SEED = float(os.environ.get("VOXEL", "0.3")), float(os.environ.get("PULP", "40")), int(os.environ.get("SEED", "1"))

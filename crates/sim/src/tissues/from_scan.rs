@@ -708,11 +708,15 @@ impl NestedBuilder<'_> {
     }
 
     /// The volume (mm³) the blurs took from `surface`'s body away from bone: ∫σ²H dA
-    /// ([`Self::settle`]); nothing where the profile showed no blur.
+    /// ([`Self::settle`]); nothing where the profile showed no blur. Over the body alone: specks
+    /// the field holds apart from it are no body the blur shrank, and a speck's ∫H dA is large
+    /// for its size (an unseen 0.1 mm incisor whose crown's rim the core took, before the edge
+    /// profile read it: 36 sheets of dentin's grey in the enamel, ∫H dA 339 mm where the body's
+    /// was 175, moved the core's surface 0.04 mm out).
     fn blur_shrink(&self, surface: &TriMesh, seen: &SeenUnderTheOutside) -> f64 {
         let Some(sigma) = seen.edge_blur_mm else { return 0.0 };
         let clear = |p: glam::DVec3| self.voxel_at(p).is_none_or(|n| !seen.beside_bone[n]);
-        (sigma * sigma + self.grey_blur_variance()) * surface.total_mean_curvature_where(clear)
+        (sigma * sigma + self.grey_blur_variance()) * surface.largest_body().total_mean_curvature_where(clear)
     }
 
     /// How many rings of voxels each side of the tooth's outer border take the grey's share
@@ -1759,6 +1763,33 @@ mod tests {
         println!("outer normals: ours {ours:.2}° ({rings} rings), one ring {one_ring:.2}°, the grey's own {of_grey:.2}°");
         assert!(ours < 0.6 * one_ring, "ours {ours:.2}° vs one ring's {one_ring:.2}°");
         assert!(ours < of_grey + 0.3, "ours {ours:.2}° vs the grey's {of_grey:.2}°");
+    }
+
+    /// A crown over its root blurred by two voxels (0.1 mm): the outermost voxels the tooth
+    /// holds mostly read as dentin by the labels' midpoint (the outside darkens the enamel),
+    /// joined to the root's dentin. Read by the edge profile down to half the tooth's, most go
+    /// to the enamel, and the core is no longer a skin over the enamel.
+    #[test]
+    fn a_blurred_crowns_rim_is_no_skin_of_dentin() {
+        let (blur, h) = (2.0, 0.1);
+        let (scan, labels, calibration, seen) = profiled_cap_scan(Label::SoftTissue, blur, h, TOOTH, CORE, true);
+        let at = |k: usize| DVec3::new((k % scan.dims[0]) as f64, ((k / scan.dims[0]) % scan.dims[1]) as f64, (k / (scan.dims[0] * scan.dims[1])) as f64) * h;
+        // Dentin voxels in the crown's enamel, clear of the DEJ.
+        let skin = |labels: &dentsim_cbct::LabelVolume| {
+            (0..labels.labels.len()).filter(|&n| labels.labels[n] == Label::Dentin as u8 && at(n).distance(CORE.0) > CORE.1 + 0.2 && at(n).distance(TOOTH.0) < TOOTH.1).count()
+        };
+        let (before, after) = (skin(&labels), skin(&seen.labels));
+        let builder = NestedBuilder { edge_blur_mm: seen.edge_blur_mm, beside_bone: Some(seen.beside_bone.as_slice()), ..builder_of(&scan, &seen.labels, &calibration) };
+        let union = builder.union_field(&[Label::Dentin, Label::Pulp, Label::Caries], None, Some(&seen.dentin_share)).unwrap();
+        let body = builder.trilinear(&union.values).unwrap().surface.largest_body();
+        let (curvature, sphere) = (body.total_mean_curvature(), 4.0 * std::f64::consts::PI * CORE.1);
+        // Measured: 11720 such voxels in the labels, 1840 read (those within 0.1 mm of the
+        // surface, their dentin share read at 0.5 or more), the core's ∫H dA 48.8 mm against
+        // its sphere's 33.9; read only where the tooth holds three quarters: 6236, 203.9 mm.
+        println!("dentin voxels in the enamel: labels {before}, read {after}; the core's ∫H dA {curvature:.1} mm, its sphere's {sphere:.1}");
+        assert!(before > 5000, "the labels' rim: {before}");
+        assert!(after < before / 4, "dentin left in the enamel: {after} of {before}");
+        assert!(curvature < 2.0 * sphere, "the core's ∫H dA {curvature:.1} mm against its sphere's {sphere:.1}");
     }
 
     const TOOTH: (DVec3, f64) = (DVec3::new(4.65, 4.65, 4.65), 3.0);
