@@ -181,7 +181,7 @@ fn an_incisor_in_water_on_a_fine_grid_keeps_no_skin_of_dentin_over_its_enamel_fr
     // by the labels' midpoint, was left to the core where the tooth held less than three
     // quarters of a voxel, a skin over the enamel with sheets into it whose curvature the
     // settling took for the body's: dentin +4.0 %, enamel +0.8 %. Read down to half the
-    // tooth's: +0.1 %, +0.4 % (the limits lie between the two).
+    // tooth's: +0.1 %, +0.3 % (the limits lie between the two). The sweep's incisor_water_0.1_40.
     segments_within("incisor_water_fine", &[("enamel", 0.02), ("dentin", 0.02), ("pulp", 0.08)]);
 }
 

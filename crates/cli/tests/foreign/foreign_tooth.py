@@ -26,7 +26,7 @@ incisor in a jaw at 0.25 mm, the same filling), or filled_incisor_air (the same 
 whose 40000 HU filling the int16 storage clips at 32767, as a saturating scanner would), or clipped_jaw (the same filling
 clipped, in a molar in a jaw at 0.2 mm), or gold_incisor (an unclipped 30000 HU filling, gold's range, in an incisor in air
 at 0.3 mm, its pulp 300 HU, int16 as the sweep's; stored as float32 the same scan was not refused), or incisor_water_fine
-(custom's incisor in water at 0.1 mm, the point spread two voxels wide). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+(custom's incisor in water at 0.1 mm, the point spread two voxels wide, int16 as the sweep's). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -213,7 +213,7 @@ else:
     affine[:3, :3] = np.diag([-1.0, -1.0, 1.0]) @ rotation @ np.diag(spacing)
     affine[:3, 3] = np.diag([-1.0, -1.0, 1.0]) @ origin
     path = os.path.join(OUT, "tooth.nii.gz")
-    image = nibabel.Nifti1Image(scan.astype(np.int16 if JAW or CASE in ("scaled", "custom", "gold_incisor") else np.float32), affine)
+    image = nibabel.Nifti1Image(scan.astype(np.int16 if JAW or CASE in ("scaled", "custom", "gold_incisor", "incisor_water_fine") else np.float32), affine)
     image.set_qform(affine, code=1)
     image.set_sform(affine, code=1)
     if CASE == "scaled":  # the values are 2 * stored - 1000
