@@ -1673,6 +1673,12 @@ mod tests {
         (scan, labels, calibration)
     }
 
+    /// The world position of voxel `n` (x fastest) of `scan`.
+    fn centre_of_voxel(scan: &Volume, n: usize) -> DVec3 {
+        let [nx, ny, _] = scan.dims;
+        DVec3::from_array(scan.voxel_center(n % nx, (n / nx) % ny, n / (nx * ny)))
+    }
+
     /// A builder of `labels` in `scan` at 0.05 mm, before its edge profile is read.
     fn builder_of<'a>(scan: &'a Volume, labels: &'a dentsim_cbct::LabelVolume, calibration: &'a Calibration) -> NestedBuilder<'a> {
         NestedBuilder { scan, labels, calibration, voxel_size_mm: 0.05, fits: Vec::new(), edge_blur_mm: None, roots: RootBorder::Unread, beside_bone: None }
@@ -1704,8 +1710,7 @@ mod tests {
             let (mut sum, mut count) = (0.0, 0usize);
             for n in (0..labels.labels.len()).filter(|&n| tooth(labels.labels[n])) {
                 for m in face_neighbours(n, scan.dims).into_iter().flatten().filter(|&m| !tooth(labels.labels[m])) {
-                    let at = |k: usize| DVec3::new((k % scan.dims[0]) as f64, ((k / scan.dims[0]) % scan.dims[1]) as f64, (k / (scan.dims[0] * scan.dims[1])) as f64) * h;
-                    sum += (0.5 * (at(n) + at(m))).distance(centre) - 3.2;
+                    sum += (0.5 * (centre_of_voxel(&scan, n) + centre_of_voxel(&scan, m))).distance(centre) - 3.2;
                     count += 1;
                 }
             }
@@ -1773,7 +1778,7 @@ mod tests {
     fn a_blurred_crowns_rim_is_no_skin_of_dentin() {
         let (blur, h) = (2.0, 0.1);
         let (scan, labels, calibration, seen) = profiled_cap_scan(Label::SoftTissue, blur, h, TOOTH, CORE, true);
-        let at = |k: usize| DVec3::new((k % scan.dims[0]) as f64, ((k / scan.dims[0]) % scan.dims[1]) as f64, (k / (scan.dims[0] * scan.dims[1])) as f64) * h;
+        let at = |n: usize| centre_of_voxel(&scan, n);
         // Dentin voxels in the crown's enamel, clear of the DEJ.
         let skin = |labels: &dentsim_cbct::LabelVolume| {
             (0..labels.labels.len()).filter(|&n| labels.labels[n] == Label::Dentin as u8 && at(n).distance(CORE.0) > CORE.1 + 0.2 && at(n).distance(TOOTH.0) < TOOTH.1).count()
