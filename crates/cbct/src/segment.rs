@@ -277,6 +277,48 @@ fn cube_around(p: [usize; 3], r: i64, d: [usize; 3]) -> impl Iterator<Item = usi
     lattice_around(p, r, [1; 3], d)
 }
 
+/// Whether the grey rises outward of `body` at `p`: the grey's gradient (differences across the
+/// 3³ block about `p`, per mm) points away from the body's voxels in the 5³ block about it, whose
+/// centre lies a voxel or more away (beside the body's border, not in a hole of it: a canal's
+/// open apex, where the grey rises from the canal into the root).
+fn rises_outward(p: [usize; 3], d: [usize; 3], body: &[bool], grey: &[f32], spacing: [f64; 3]) -> bool {
+    if (0..3).any(|c| p[c] < 2 || p[c] + 2 >= d[c]) {
+        return false;
+    }
+    let at = |q: [usize; 3]| q[0] + d[0] * (q[1] + d[1] * q[2]);
+    let (mut outward, mut count) = ([0.0f64; 3], 0usize);
+    for q in lattice_around(p, 2, [1; 3], d).filter(|&q| body[q]) {
+        let q = [q % d[0], (q / d[0]) % d[1], q / (d[0] * d[1])];
+        for c in 0..3 {
+            outward[c] += p[c] as f64 - q[c] as f64;
+        }
+        count += 1;
+    }
+    // Away from the body by a voxel at least: beside its border, not in a hole of it (a canal).
+    if count == 0 || outward.iter().map(|o| o * o).sum::<f64>() < (count * count) as f64 {
+        return false;
+    }
+    let outward: [f64; 3] = std::array::from_fn(|c| outward[c] * spacing[c]);
+    let mut dot = 0.0;
+    for c in 0..3 {
+        let mut step = 0.0;
+        let (a, b) = ((c + 1) % 3, (c + 2) % 3);
+        for u in 0..3 {
+            for v in 0..3 {
+                let mut q = p;
+                q[a] = p[a] + u - 1;
+                q[b] = p[b] + v - 1;
+                let (mut hi, mut lo) = (q, q);
+                hi[c] += 1;
+                lo[c] -= 1;
+                step += f64::from(grey[at(hi)]) - f64::from(grey[at(lo)]);
+            }
+        }
+        dot += step / spacing[c] * outward[c];
+    }
+    dot > 0.0
+}
+
 /// The (2r+1)³ lattice about `p` with `steps` voxels between its points along each axis, within
 /// the grid `d`.
 fn lattice_around(p: [usize; 3], r: i64, steps: [usize; 3], d: [usize; 3]) -> impl Iterator<Item = usize> {
@@ -927,14 +969,19 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             // A root's partner in bone is the ligament or the bone ([`Calibration::root_partner`]).
             // Near the crown, or with no body of bone near, a bone-grey outside is partial volume
             // (air in a blurred fissure, water against the root): soft.
+            let in_bone = matches!(mu_out, Label::BoneCancellous | Label::BoneCortical) && !near_enamel[l] && bone_near[l];
             let partner = if !matches!(mu_out, Label::BoneCancellous | Label::BoneCortical) {
                 cal.peak(mu_out)
-            } else if near_enamel[l] || !bone_near[l] {
+            } else if !in_bone {
                 cal.peak(Label::SoftTissue)
             } else {
                 cal.root_partner(&mut outs, mu_out)
             };
-            let inside = f64::from(bvals[l]) > 0.5 * (cal.peak(mu_in) + partner);
+            // By a root in bone, a voxel outside the tooth the hard tissues' threshold found whose
+            // grey rises outward lies past the ligament's dip: bone (a cortex is as bright as a
+            // root's blurred edge), however bright.
+            let past_dip = || in_bone && !filled[l] && rises_outward(p, d, &filled, &bvals, vol.spacing);
+            let inside = f64::from(bvals[l]) > 0.5 * (cal.peak(mu_in) + partner) && !past_dip();
             (l, inside.then_some(mu_in))
         })
         .collect();
