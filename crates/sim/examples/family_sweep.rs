@@ -8,7 +8,7 @@
 //! `quiet`: every scan without noise (point spread and integer storage kept): the noise's share.
 //! `regions`: where the enamel's, dentin's and pulp's normal error lies (DEJ, thin cervical
 //! enamel, outer surface, root, pulp wall; the pulp's chamber, its thin parts and their apices),
-//! ours against the sampled resolution floor's (with `quiet` or `ideal` as above). `volumes`: where each
+//! ours against the sampled resolution floor's, angle and mean signed distance (with `quiet` or `ideal` as above). `volumes`: where each
 //! tissue's volume error lies (mm³ ours holds and the truth not, and the reverse) by the truth's
 //! nearest interface (pulp wall, outer surface, DEJ), or past our band, sampled on a 0.025 mm grid.
 //! `json=FILE`: each case's figures written to FILE as JSON too; `against=FILE`: each tissue's

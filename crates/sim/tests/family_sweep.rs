@@ -24,6 +24,14 @@ fn every_fast_case_gives_the_tooth_near_its_true_tissues() {
             (dentsim_cbct::phantom::Medium::Jaw, None) => panic!("{}: no ligament read", r.name),
             (_, read) => assert_eq!(read, None, "{}", r.name),
         }
+        // The crown's cervical enamel by the alveolar crest is read through its dentin share
+        // (left out beside bone, the jaw incisor's dentin under enamel thinner than 0.3 mm lay
+        // 0.080 mm out: enamel 5.16°, dentin 5.01°; read, 2026-12-07: 4.50°, 4.67°).
+        if case.name.contains("lower incisor in the jaw") {
+            for t in r.tissues.iter().filter(|t| t.label != dentsim_cbct::Label::Pulp) {
+                assert!(t.normal_deg <= 5.0, "{}: {} normals {:.2}°", r.name, t.label.name(), t.normal_deg);
+            }
+        }
         pulp_normals.extend(r.tissues.iter().filter(|t| t.label == dentsim_cbct::Label::Pulp).map(|t| t.normal_deg));
         for t in &r.tissues {
             // measured on these cases (2026-11-28): enamel ≤ 1.8 % (the tilted incisor in the

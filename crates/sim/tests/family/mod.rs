@@ -216,15 +216,15 @@ fn along_axes(centre: DVec3, reach: f64, steps: u32) -> impl Iterator<Item = DVe
 /// the DEJ by the enamel's thickness over it (under 0.3 mm, to 0.6 mm, more), the outer surface within 2 `h` of the enamel (its edge) and the rest of the root,
 /// clear of bone, in it, and in it by the cortex;
 /// pulp: its chamber, its thin parts (canals, horns) and their ends at the root's outside.
-/// Per region: triangles, mean angle (degrees).
-pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, label: Label, h: f64) -> Vec<(&'static str, usize, f64)> {
+/// Per region: triangles, mean angle (degrees), mean signed distance from the truth (mm, + outside).
+pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, label: Label, h: f64) -> Vec<(&'static str, usize, f64, f64)> {
     let sdf = |l: Label, p: DVec3| phantom.tooth_sdf(fdi, l, p).unwrap_or(f64::INFINITY);
     let names: &[&'static str] = match label {
         Label::Enamel => &["DEJ", "outer thin", "outer", "no enamel within 2h"],
         Label::Pulp => &["chamber", "thin (canal, horn)", "apex"],
         _ => &["pulp wall", "DEJ, enamel < 0.3 mm", "DEJ, enamel 0.3–0.6 mm", "DEJ, thicker enamel", "root at enamel edge", "root", "root in bone", "root by cortex"],
     };
-    let mut bins: Vec<(usize, f64)> = vec![(0, 0.0); names.len()];
+    let mut bins: Vec<(usize, f64, f64)> = vec![(0, 0.0, 0.0); names.len()];
     let own = |p: DVec3| sdf(label, p);
     for (centre, angle) in triangle_angles(mesh, 40000, &own) {
         let tooth = sdf(Label::Air, centre);
@@ -235,6 +235,7 @@ pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, la
             let bin = if deepest < -PULP_THIN_MM { 0 } else if tooth < -PULP_APEX_MM { 1 } else { 2 };
             bins[bin].0 += 1;
             bins[bin].1 += angle;
+            bins[bin].2 += own(centre);
             continue;
         }
         // Enamel within 2 h along an axis: the enamel's SDF, max(tooth, −core), is ~0 all over
@@ -271,8 +272,9 @@ pub fn region_errors(mesh: &dentsim_vdb::TriMesh, phantom: &Phantom, fdi: u8, la
         };
         bins[bin].0 += 1;
         bins[bin].1 += angle;
+        bins[bin].2 += own(centre);
     }
-    names.iter().zip(bins).map(|(n, (count, sum))| (*n, count, sum / count.max(1) as f64)).collect()
+    names.iter().zip(bins).map(|(n, (count, sum, signed))| (*n, count, sum / count.max(1) as f64, signed / count.max(1) as f64)).collect()
 }
 
 /// [`region_errors`] of the pipeline's enamel and dentin and of the sampled resolution floor's,
@@ -293,7 +295,7 @@ pub fn print_regions(case: &FamilyCase, voxel_mm: f64) -> Result<(), String> {
         let text: Vec<String> = ours
             .iter()
             .zip(&theirs)
-            .map(|(o, f)| format!("{} {:.0}%/{:.0}% {:.1}°/{:.1}° (adds {:.2}°)", o.0, 100.0 * o.1 as f64 / n_ours, 100.0 * f.1 as f64 / n_floor, o.2, f.2, o.1 as f64 * o.2 / n_ours - f.1 as f64 * f.2 / n_floor))
+            .map(|(o, f)| format!("{} {:.0}%/{:.0}% {:.1}°/{:.1}° {:+.3}/{:+.3} mm (adds {:.2}°)", o.0, 100.0 * o.1 as f64 / n_ours, 100.0 * f.1 as f64 / n_floor, o.2, f.2, o.3, f.3, o.1 as f64 * o.2 / n_ours - f.1 as f64 * f.2 / n_floor))
             .collect();
         println!("  {:7} ours/floor: {}", label.name(), text.join(" | "));
     }

@@ -258,7 +258,6 @@ impl NestedBuilder<'_> {
             }
             None => RootBorder::Unread,
         };
-        let by_other: Vec<bool> = by_other.iter().zip(&beside_bone).map(|(a, b)| *a || *b).collect();
         let outside_grey = |n: usize| -> Option<(f64, bool)> {
             let s = source[n];
             if s == NONE {
@@ -273,7 +272,7 @@ impl NestedBuilder<'_> {
         let mut samples: Vec<Vec<f32>> = vec![Vec::new(); bins];
         for (i, &n) in near.iter().enumerate() {
             let (Some(b), Some((g_out, false))) = (bin_of(distance[i]), outside_grey(n)) else { continue };
-            if by_other[n] || by_enamel[n] == by_dentin[n] {
+            if by_other[n] || beside_bone[n] || by_enamel[n] == by_dentin[n] {
                 continue;
             }
             let g_in = if by_enamel[n] { g_en } else { g_de };
@@ -314,7 +313,10 @@ impl NestedBuilder<'_> {
         // dentin over the enamel with sheets into it (an unseen incisor in air at 0.1 mm, the
         // blur two voxels wide: the core's surface 342 mm² against 296, dentin +4.0 %, enamel
         // −2.2 %; read down to half: +0.1 %, +0.1 %, and the family's normals 0.1° better on
-        // average).
+        // average). Bone near is no reason to leave a voxel out, only bone as its outside
+        // (`outside_grey`): in a jaw the crown's cervical enamel lies within the profile's reach of
+        // the alveolar crest, its outside the gum (the tilted jaw incisor's dentin under enamel
+        // thinner than 0.3 mm lay 0.080 mm out, its enamel 5.2° and dentin 5.0° off; read: 4.5°, 4.7°).
         let mut dentin = vec![f32::NAN; len];
         for (i, &n) in near.iter().enumerate() {
             let c = labels[n];
