@@ -278,45 +278,34 @@ fn cube_around(p: [usize; 3], r: i64, d: [usize; 3]) -> impl Iterator<Item = usi
 }
 
 /// Whether the grey rises outward of `body` at `p`: the grey's gradient (differences across the
-/// 3³ block about `p`, per mm) points away from the body's voxels in the 5³ block about it, whose
-/// centre lies a voxel or more away (beside the body's border, not in a hole of it: a canal's
-/// open apex, where the grey rises from the canal into the root).
-fn rises_outward(p: [usize; 3], d: [usize; 3], body: &[bool], grey: &[f32], spacing: [f64; 3]) -> bool {
+/// 3³ block about `p`) points away from the body's voxels in the 5³ block about it, whose centre
+/// lies a voxel or more away (beside the body's border, not in a hole of it: a canal's open apex,
+/// where the grey rises from the canal into the root). Both in voxels: a spacing's stretch of the
+/// one is undone in the other, so the sign is the world's on any grid.
+fn rises_outward(p: [usize; 3], d: [usize; 3], body: &[bool], grey: &[f32]) -> bool {
     if (0..3).any(|c| p[c] < 2 || p[c] + 2 >= d[c]) {
         return false;
     }
-    let at = |q: [usize; 3]| q[0] + d[0] * (q[1] + d[1] * q[2]);
+    let offset = |q: usize| -> [f64; 3] {
+        let at = [q % d[0], (q / d[0]) % d[1], q / (d[0] * d[1])];
+        std::array::from_fn(|c| at[c] as f64 - p[c] as f64)
+    };
     let (mut outward, mut count) = ([0.0f64; 3], 0usize);
     for q in lattice_around(p, 2, [1; 3], d).filter(|&q| body[q]) {
-        let q = [q % d[0], (q / d[0]) % d[1], q / (d[0] * d[1])];
-        for c in 0..3 {
-            outward[c] += p[c] as f64 - q[c] as f64;
-        }
+        let o = offset(q);
+        (0..3).for_each(|c| outward[c] -= o[c]);
         count += 1;
     }
     // Away from the body by a voxel at least: beside its border, not in a hole of it (a canal).
     if count == 0 || outward.iter().map(|o| o * o).sum::<f64>() < (count * count) as f64 {
         return false;
     }
-    let outward: [f64; 3] = std::array::from_fn(|c| outward[c] * spacing[c]);
-    let mut dot = 0.0;
-    for c in 0..3 {
-        let mut step = 0.0;
-        let (a, b) = ((c + 1) % 3, (c + 2) % 3);
-        for u in 0..3 {
-            for v in 0..3 {
-                let mut q = p;
-                q[a] = p[a] + u - 1;
-                q[b] = p[b] + v - 1;
-                let (mut hi, mut lo) = (q, q);
-                hi[c] += 1;
-                lo[c] -= 1;
-                step += f64::from(grey[at(hi)]) - f64::from(grey[at(lo)]);
-            }
-        }
-        dot += step / spacing[c] * outward[c];
+    let mut gradient = [0.0f64; 3];
+    for q in cube_around(p, 1, d) {
+        let o = offset(q);
+        (0..3).for_each(|c| gradient[c] += f64::from(grey[q]) * o[c]);
     }
-    dot > 0.0
+    (0..3).map(|c| gradient[c] * outward[c]).sum::<f64>() > 0.0
 }
 
 /// The (2r+1)³ lattice about `p` with `steps` voxels between its points along each axis, within
@@ -980,7 +969,7 @@ pub fn segment(vol: &Volume, cal: &Calibration, opts: &SegmentOptions) -> Result
             // By a root in bone, a voxel outside the tooth the hard tissues' threshold found whose
             // grey rises outward lies past the ligament's dip: bone (a cortex is as bright as a
             // root's blurred edge), however bright.
-            let past_dip = || in_bone && !filled[l] && rises_outward(p, d, &filled, &bvals, vol.spacing);
+            let past_dip = || in_bone && !filled[l] && rises_outward(p, d, &filled, &bvals);
             let inside = f64::from(bvals[l]) > 0.5 * (cal.peak(mu_in) + partner) && !past_dip();
             (l, inside.then_some(mu_in))
         })
