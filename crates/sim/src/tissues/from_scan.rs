@@ -1070,6 +1070,12 @@ impl NestedBuilder<'_> {
             None => (None, None, RootBorder::Unread),
         };
         let edge_blur_mm = seen.as_ref().and_then(|seen| seen.edge_blur_mm);
+        // A thin pulp's grey, where the calibration only predicted it, read in the voxels the
+        // blur leaves pure.
+        let measure = match (measure, edge_blur_mm) {
+            (Some(measure), Some(blur)) => Some(measure.with_blur(blur)),
+            (measure, _) => measure,
+        };
         let beside_bone = seen.as_ref().map(|seen| seen.beside_bone.as_slice());
         let this = &NestedBuilder { fits: Vec::new(), roots, edge_blur_mm, beside_bone, ..*self };
         // The core from labels that see the enamel under the outside's grey (the tooth's field

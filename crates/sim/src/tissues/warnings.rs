@@ -209,7 +209,7 @@ mod tests {
     #[test]
     fn a_pulp_its_surface_cannot_follow_is_never_silent() {
         let cal = Calibration::manual(&[(Label::Air, -1000.0), (Label::Dentin, 1800.0), (Label::Enamel, 2900.0)]).unwrap();
-        let measure = |volume_mm3: f64, measured: bool| PartialVolume { volume_mm3, tissue_grey: 136.0, surround_grey: 1784.0, tissue_grey_measured: measured, voxels: 1473 };
+        let measure = |volume_mm3: f64, measured: bool| PartialVolume { volume_mm3, tissue_grey: 136.0, surround_grey: 1784.0, tissue_grey_measured: measured, voxels: 1473, near_pure: Vec::new() };
         let lost = pulp_fit_warning(12.2, &measure(14.53, false), 0.2, None, &cal, 0.4).expect("16 % apart: a warning");
         assert!(lost.contains("encloses 12.20 mm³") && lost.contains("measures 14.53 mm³") && lost.contains("0.40 mm scan") && lost.contains("+0.200 mm"), "{lost}");
         assert!(lost.contains("predicted") && lost.contains("--thresholds air=-1000.0,pulp=GREY,dentin=1800.0,enamel=2900.0"), "{lost}");
