@@ -36,10 +36,10 @@ const MIN_NEAR_PURE_VOXELS: usize = 16;
 /// Voxels from this depth to 2 deep: how fast the blur's share falls.
 const SHALLOWER_DEPTH_VOXELS: f32 = 1.4;
 /// Once the scan's blur σ is known ([`PartialVolume::with_blur`]), a tissue voxel this many σ
-/// inside its labels' border holds 0.6 % of its surround's grey by a flat border, 2–6 % inside
-/// a compact body (a Gaussian's tail beyond 2.5 σ in two and three dimensions; the family's 0.3
-/// mm molars' pulps read 4–5 % of the contrast toward the dentin): its grey is the tissue's to
-/// within that residue, and replaces a prediction or bound only when farther off than it.
+/// inside its labels' border holds 0.6 % of its surround's grey by a flat border, up to 4 % in
+/// a tube and 10 % at a ball's centre (a Gaussian's tail past 2.5 σ in one, two and three
+/// dimensions; the family's 0.3 mm molars' pulps read 4–5 % of the contrast toward the dentin):
+/// its grey replaces a prediction or bound only when farther off than that residue.
 const PURE_BLUR_SIGMAS: f32 = 2.5;
 const MAX_RESIDUE_SHARE: f64 = 0.05;
 /// ... read from at least this many such voxels, its median's standard error within this share
