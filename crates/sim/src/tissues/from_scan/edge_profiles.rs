@@ -27,6 +27,20 @@ fn binned_medians(samples: &mut [Vec<f32>]) -> Vec<Option<f64>> {
         .collect()
 }
 
+/// Each run of empty bins with read bins on both sides, filled along the line between them.
+fn fill_between(profile: &mut [Option<f64>]) {
+    let mut last: Option<(usize, f64)> = None;
+    for b in 0..profile.len() {
+        let Some(v) = profile[b] else { continue };
+        if let Some((a, u)) = last.filter(|(a, _)| b > a + 1) {
+            for (i, p) in profile.iter_mut().enumerate().take(b).skip(a + 1) {
+                *p = Some(u + (v - u) * (i - a) as f64 / (b - a) as f64);
+            }
+        }
+        last = Some((b, v));
+    }
+}
+
 /// Whether the roots' edge profile into bone (grey medians in [`PROFILE_BIN_VOXELS`] bins from
 /// [`PROFILE_VOXELS`] inside to as far outside) shows a periodontal ligament: the grey within two
 /// voxels outside the surface dips below the bone's further out by more than
@@ -279,6 +293,10 @@ impl NestedBuilder<'_> {
             samples[b].push(((f64::from(self.scan.values[n]) - g_out) / (g_in - g_out)) as f32);
         }
         let mut profile = binned_medians(&mut samples);
+        // An empty bin on the tooth's side between two read ones takes their line: few voxels lie
+        // clear of the other tissues at some depths (a 0.4 mm incisor in a jaw, its canal traced
+        // to the apex: bins 10–11 of 15 empty between 1.01 and 0.94, and the profile was lost).
+        fill_between(&mut profile[..bins / 2 + 1]);
         // On the tooth's side the bins must be read until the share is whole (deeper bins
         // without voxels clear of the other tissue are whole); the share only falls outward
         // (bins run from inside to outside; a few deep voxels by the DEJ or the pulp read low,
@@ -354,6 +372,17 @@ impl NestedBuilder<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Empty bins between read ones take their line; those with no read bin on one side stay empty.
+    #[test]
+    fn an_empty_bin_between_read_ones_takes_their_line() {
+        let mut profile = vec![None, Some(1.0), None, None, Some(0.94), Some(0.5), None];
+        fill_between(&mut profile);
+        let want = [None, Some(1.0), Some(0.98), Some(0.96), Some(0.94), Some(0.5), None];
+        for (got, want) in profile.iter().zip(want) {
+            assert!(got.is_some() == want.is_some() && (got.unwrap_or(0.0) - want.unwrap_or(0.0)).abs() < 1e-12, "{profile:?}");
+        }
+    }
 
     /// A root's edge profile into bone as the scan's point spread (σ in voxels) makes it, in the
     /// bins [`root_ligament_seen`] reads: dentin, then `ligament` voxels of soft tissue, then bone.
