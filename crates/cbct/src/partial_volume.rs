@@ -39,9 +39,8 @@ const SHALLOWER_DEPTH_VOXELS: f32 = 1.4;
 /// inside its labels' border holds 0.6 % of its surround's grey by a flat border, up to 4 % in
 /// a tube and 10 % at a ball's centre (a Gaussian's tail past 2.5 σ in one, two and three
 /// dimensions; the family's 0.3 mm molars' pulps read 4–5 % of the contrast toward the dentin):
-/// its grey replaces a prediction or bound only when farther off than that residue.
+/// a reading of the tissue's grey to within that, where the calibration's line only predicts it.
 const PURE_BLUR_SIGMAS: f32 = 2.5;
-const MAX_RESIDUE_SHARE: f64 = 0.05;
 /// ... read from at least this many such voxels, its median's standard error within this share
 /// of the contrast (a coarse incisor's chamber holds 6, their median 1 % of it from the truth).
 const MIN_PURE_VOXELS: usize = 5;
@@ -87,10 +86,8 @@ impl PartialVolume {
         let spread = 1.4826 * median(pure.iter().map(|g| (f64::from(*g) - grey).abs() as f32).collect());
         let (before, after) = (self.surround_grey - self.tissue_grey, self.surround_grey - grey);
         let precise = 1.2533 * spread / n.sqrt() <= MAX_GREY_ERROR_SHARE * after.abs();
-        // A grey at or past the surround's is no reading; one within the blur's residue of the
-        // grey taken before changes nothing it can vouch for.
-        let apart = (grey - self.tissue_grey).abs() > MAX_RESIDUE_SHARE * after.abs();
-        if !precise || !apart || after * before <= 0.0 || after.abs() <= 0.01 * self.surround_grey.abs().max(1.0) {
+        // A grey at or past the surround's is no reading.
+        if !precise || after * before <= 0.0 || after.abs() <= 0.01 * self.surround_grey.abs().max(1.0) {
             return self;
         }
         PartialVolume { volume_mm3: self.volume_mm3 * before / after, tissue_grey: grey, tissue_grey_measured: true, near_pure: Vec::new(), ..self }
@@ -336,8 +333,8 @@ mod tests {
 
     /// A pulp 4 voxels wide at 0.4 mm (σ 0.2 mm): no voxel lies 3 deep, so the measure rests on
     /// the calibration's prediction, here 90 grey off; once the blur is known its voxels 2 deep
-    /// (2.6 σ inside) give its grey and the volume. Under a blur twice as wide they are not pure,
-    /// and a prediction 30 grey off is within their residue: the measure stays as it was.
+    /// (2.6 σ inside) give its grey and the volume. Under a blur twice as wide they are not pure
+    /// and the measure stays as it was.
     #[test]
     fn a_thin_pulps_grey_is_read_where_the_blur_leaves_it_pure() {
         let (h, r, half_len) = (0.4, 0.8, 4.0);
@@ -355,10 +352,6 @@ mod tests {
         assert!(read.tissue_grey_measured && (read.tissue_grey - 1370.0).abs() < 0.02 * (2585.0 - 1370.0), "grey {}", read.tissue_grey);
         assert!((read.volume_mm3 / truth - 1.0).abs() < 0.01, "{} vs {truth}", read.volume_mm3);
         assert_eq!(measure.clone().with_blur(2.0 * blur), measure);
-        // A prediction within the blur's residue (5 % of the contrast) of that reading stays.
-        let near = Calibration::manual(&[(Label::Dentin, 2585.0), (Label::Pulp, 1340.0)]).unwrap();
-        let measure = enclosed_volume(&vol, &labels, Label::Pulp, Label::Dentin, &near).unwrap();
-        assert_eq!(measure.clone().with_blur(blur), measure);
     }
 
     /// A thin surround's shell holds too few voxels: its nearest clear voxels beyond make up the
