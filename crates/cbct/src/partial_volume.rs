@@ -76,7 +76,7 @@ impl PartialVolume {
     pub fn with_blur(self, blur_mm: f64) -> PartialVolume {
         let depth = PURE_BLUR_SIGMAS * blur_mm as f32;
         let pure: Vec<f32> = self.near_pure.iter().filter(|(d, _)| *d >= depth).map(|(_, g)| *g).collect();
-        if self.near_pure.is_empty() || !blur_mm.is_finite() || pure.len() < MIN_PURE_VOXELS {
+        if !blur_mm.is_finite() || pure.len() < MIN_PURE_VOXELS {
             return self;
         }
         let n = pure.len() as f64;
@@ -87,7 +87,7 @@ impl PartialVolume {
         let (before, after) = (self.surround_grey - self.tissue_grey, self.surround_grey - grey);
         let precise = 1.2533 * spread / n.sqrt() <= MAX_GREY_ERROR_SHARE * after.abs();
         // A grey at or past the surround's is no reading.
-        if !precise || after * before <= 0.0 || after.abs() <= 0.01 * self.surround_grey.abs().max(1.0) {
+        if !precise || after * before <= 0.0 || !apart(after, self.surround_grey) {
             return self;
         }
         PartialVolume { volume_mm3: self.volume_mm3 * before / after, tissue_grey: grey, tissue_grey_measured: true, near_pure: Vec::new(), ..self }
@@ -113,9 +113,7 @@ pub fn enclosed_volume(vol: &Volume, labels: &LabelVolume, tissue: Label, surrou
     let (shell_in, shell_out) = ((BAND_VOXELS + 1.0) * h, (BAND_VOXELS + 5.0) * h);
     let surround_grey = surround_reference(vol, labels, s, &to_tissue, &to_other, (shell_in, shell_out), BAND_VOXELS * h).unwrap_or_else(|| cal.peak(surround));
     let contrast = surround_grey - tissue_grey;
-    // Apart by less than a percent of the surround's grey, fractions would be noise.
-    let apart = contrast.abs() > 0.01 * surround_grey.abs().max(1.0);
-    if !apart {
+    if !apart(contrast, surround_grey) {
         return None;
     }
     let band = BAND_VOXELS * h;
@@ -129,6 +127,12 @@ pub fn enclosed_volume(vol: &Volume, labels: &LabelVolume, tissue: Label, surrou
         _ => (0..vol.values.len()).filter(|&n| is_tissue[n] && depth[n] >= NEAR_PURE_DEPTH_VOXELS * h).map(|n| (depth[n] - 0.5 * h, vol.values[n])).collect(),
     };
     Some(PartialVolume { volume_mm3: sum * vol.voxel_volume_mm3(), tissue_grey, surround_grey, tissue_grey_measured: reading != Reading::Predicted, voxels, near_pure })
+}
+
+/// Whether a tissue's grey lies `contrast` from its surround's by more than a percent of the
+/// surround's grey: nearer, fractions of the contrast would be noise.
+fn apart(contrast: f64, surround_grey: f64) -> bool {
+    contrast.abs() > 0.01 * surround_grey.abs().max(1.0)
 }
 
 /// The surround's own grey beside a tissue: the median of its voxels in a shell `shell` (mm from
