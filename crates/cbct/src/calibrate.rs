@@ -386,8 +386,11 @@ struct Peak {
 /// are always among them (see [`MIN_PEAK_MM3`]).
 fn peaks(h: &[f64], lo: f64, bw: f64, body: f64) -> Vec<Peak> {
     let bins = h.len();
-    let logh: Vec<f64> = h.iter().map(|&c| (1.0 + c).ln()).collect();
-    let s = smooth(&logh, 3.0);
+    // The log of the smoothed counts, not the smoothed log: a noise-free tissue is one full bin,
+    // and the logs of its mixtures' sparse bins beside it outweighed it once smoothed (the
+    // family's jaws without noise lost their air, read the cancellous bone as the medium, and
+    // one was refused).
+    let s: Vec<f64> = smooth(h, 3.0).iter().map(|&c| (1.0 + c).ln()).collect();
     let count = |i: usize| h[i.saturating_sub(3)..(i + 4).min(bins)].iter().sum::<f64>();
     let mut found: Vec<(usize, f64)> = Vec::new();
     for i in 1..bins - 1 {
@@ -1192,6 +1195,24 @@ mod tests {
         assert_eq!(found.len(), 9, "{found:?}");
         assert!((found[8].grey - 560.5).abs() <= 2.0, "the brightest bump dropped: {found:?}");
         assert!((found[7].grey - 470.5).abs() <= 2.0 && (found[6].grey - 415.5).abs() <= 2.0, "{found:?}");
+    }
+
+    #[test]
+    fn a_noise_free_tissue_is_found_in_its_one_full_bin() {
+        // A noise-free scan: every tissue one bin, and above the air a comb of its mixtures
+        // with the soft tissue (the counts of the family's noise-free jaw at 0.3 mm), whose
+        // smoothed log outweighs the air's one bin.
+        let mut h = vec![0.0; 512];
+        let comb = [(12, 40.0), (14, 64.0), (16, 114.0), (17, 301.0), (19, 1590.0), (21, 74.0), (23, 60.0), (25, 202.0), (26, 40.0)];
+        for (bin, count) in [(9, 201_185.0), (150, 90_000.0), (300, 30_000.0), (420, 4_000.0)].into_iter().chain(comb) {
+            h[bin] = count;
+        }
+        let found = peaks(&h, 0.0, 1.0, 0.0);
+        let greys: Vec<f64> = found.iter().map(|p| p.grey).collect();
+        for tissue in [9.5, 150.5, 300.5, 420.5] {
+            assert!(greys.contains(&tissue), "no peak at {tissue}: {greys:?}");
+        }
+        assert!(found[0].count >= 201_185.0, "{found:?}");
     }
 
     #[test]
