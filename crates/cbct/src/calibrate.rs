@@ -177,6 +177,21 @@ impl Calibration {
         cal
     }
 
+    /// The same reading with the given tissues' grey values measured anew (those the scan
+    /// showed; a scan's shading taken off moves them) and the thresholds between the same
+    /// classes moved with them; `why` joins the evidence.
+    pub fn with_greys(&self, greys: &[(Label, f64)], why: String) -> Calibration {
+        let mut cal = self.clone();
+        for &(l, g) in greys.iter().filter(|(l, g)| self.shows(*l) && g.is_finite()) {
+            cal.peaks.insert(l.name().to_string(), g);
+        }
+        let steps: Vec<&Threshold> = self.thresholds.iter().filter(|t| t.above != Label::Metal.name()).collect();
+        let classes: Vec<Label> = steps.first().and_then(|t| Label::from_name(&t.below)).into_iter().chain(steps.iter().filter_map(|t| Label::from_name(&t.above))).collect();
+        cal.thresholds = cal.thresholds_between(&classes);
+        cal.evidence.push(why);
+        cal
+    }
+
     /// The grey above which a voxel is hard tissue (dentin or enamel): the threshold under the
     /// dentin's class.
     pub fn hard_cut(&self) -> f64 {
@@ -1195,6 +1210,20 @@ mod tests {
         assert_eq!(found.len(), 9, "{found:?}");
         assert!((found[8].grey - 560.5).abs() <= 2.0, "the brightest bump dropped: {found:?}");
         assert!((found[7].grey - 470.5).abs() <= 2.0 && (found[6].grey - 415.5).abs() <= 2.0, "{found:?}");
+    }
+
+    #[test]
+    fn greys_measured_anew_move_the_thresholds_between_the_same_classes() {
+        let cal = Calibration::manual(&[(Label::Air, -1000.0), (Label::Dentin, 1800.0), (Label::Enamel, 2900.0)]).unwrap().without_bone();
+        let moved = cal.with_greys(&[(Label::Enamel, 2800.0), (Label::Pulp, 100.0), (Label::Air, -1040.0)], "shading".into());
+        assert_eq!(moved.peak(Label::Enamel), 2800.0);
+        assert_eq!(moved.peak(Label::Air), -1040.0);
+        // the pulp's grey was only predicted: not the scan's to move
+        assert_eq!(moved.peak(Label::Pulp), cal.peak(Label::Pulp));
+        let between = |c: &Calibration| c.thresholds.iter().map(|t| (t.below.clone(), t.above.clone())).collect::<Vec<_>>();
+        assert_eq!(between(&moved), between(&cal), "the classes without bone kept");
+        assert_eq!(moved.thresholds.iter().find(|t| t.above == "enamel").unwrap().value, 2300.0);
+        assert_eq!(moved.evidence.last().map(String::as_str), Some("shading"));
     }
 
     #[test]

@@ -15,6 +15,7 @@ pub mod partial_volume;
 pub mod phantom;
 pub mod roi;
 pub mod segment;
+pub mod shading;
 #[cfg(test)]
 mod test_scans;
 pub mod volume;
@@ -30,6 +31,7 @@ pub use calibrate::{calibrate, calibrate_below, Calibration};
 pub use canal::trace_thin_canals;
 pub use mask::within_box;
 pub use roi::{crop, crop_between_planes, crop_labels, pad, pad_labels, tooth_box, IndexBox, Plane};
+pub use shading::Shading;
 pub use segment::{dice, find_teeth, segment, tissue_field, FoundTooth, SegmentOptions, ToothSelect};
 
 

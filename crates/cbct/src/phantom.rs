@@ -59,6 +59,11 @@ pub struct PhantomSpec {
     /// tooth and its neighbours ([`PhantomSpec::arch`]).
     #[serde(default)]
     pub arch: bool,
+    /// A cone-beam scanner's shading (HU): cupping, darker toward the field's axis by this much
+    /// at its middle against its side's middle, and a ramp along the axis of half as much from
+    /// its middle to its top. 0: flat grey values, as a CT's.
+    #[serde(default)]
+    pub shading_hu: f32,
 }
 
 fn default_tooth() -> u8 {
@@ -113,6 +118,7 @@ impl Default for PhantomSpec {
             spacing_xyz: None,
             integer: None,
             arch: false,
+            shading_hu: 0.0,
         }
     }
 }
@@ -958,6 +964,9 @@ impl Phantom {
         if self.spec.restoration {
             self.add_streaks(&mut hu);
         }
+        if self.spec.shading_hu != 0.0 {
+            self.add_shading(&mut hu);
+        }
         let sigma = self.spec.noise_sigma;
         let (scale, offset) = (self.spec.scale, self.spec.offset);
         let top = 3071.0f32;
@@ -988,6 +997,20 @@ impl Phantom {
             ..Default::default()
         };
         Volume { dims: self.spec.dims, spacing: sp, origin: self.origin, direction: self.spec.direction(), values: hu, source }
+    }
+
+    /// [`PhantomSpec::shading_hu`] over the scan's grid (its axes scaled to −1…1).
+    fn add_shading(&self, hu: &mut [f32]) {
+        let [nx, ny, nz] = self.spec.dims;
+        let scaled = |c: usize, n: usize| if n > 1 { 2.0 * c as f32 / (n - 1) as f32 - 1.0 } else { 0.0 };
+        let s = self.spec.shading_hu;
+        hu.par_chunks_mut(nx * ny).enumerate().for_each(|(k, slab)| {
+            let z = scaled(k, nz);
+            for (n, v) in slab.iter_mut().enumerate() {
+                let (x, y) = (scaled(n % nx, nx), scaled(n / nx, ny));
+                *v += s * (x * x + y * y - 0.5) + 0.5 * s * z;
+            }
+        });
     }
 
     /// Fills the voxels `lo..hi` (index box; `slab` starts at layer `k0`) with their grey: at
@@ -1279,6 +1302,8 @@ pub fn family(full: bool) -> Vec<FamilyCase> {
                 s.offset = -20.0;
                 s.integer = Some((8, true));
             }),
+            case("lower molar in the jaw under a cone-beam shading", 46, Medium::Jaw, 0.25, &|s| s.shading_hu = 300.0),
+            case("upper incisor in water under a cone-beam shading", 12, Medium::Water, 0.2, &|s| s.shading_hu = 300.0),
         ]);
     }
     cases

@@ -26,7 +26,9 @@ incisor in a jaw at 0.25 mm, the same filling), or filled_incisor_air (the same 
 whose 40000 HU filling the int16 storage clips at 32767, as a saturating scanner would), or clipped_jaw (the same filling
 clipped, in a molar in a jaw at 0.2 mm), or gold_incisor (an unclipped 30000 HU filling, gold's range, in an incisor in air
 at 0.3 mm, its pulp 300 HU, int16 as the sweep's; stored as float32 the same scan was not refused), or incisor_water_fine
-(custom's incisor in water at 0.1 mm, the point spread two voxels wide, int16 as the sweep's). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+(custom's incisor in water at 0.1 mm, the point spread two voxels wide, int16 as the sweep's), or shaded_jaw / shaded_incisor_water
+(custom's molar in a jaw at 0.3 mm / incisor in water at 0.25 mm under a cone-beam shading of 300 HU: SHADING, also custom's,
+a cupping toward the field's axis and a ramp along it; the JSON then gives its span over the tooth, 5th to 95th percentile). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -37,8 +39,13 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-CUSTOM = CASE in ("custom", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling", "clipped_jaw", "gold_incisor", "incisor_water_fine")
-if CASE == "filled_jaw":  # the sweep's molar in a jaw at 0.3 mm with an amalgam filling
+CUSTOM = CASE in ("custom", "shaded_jaw", "shaded_incisor_water", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling", "clipped_jaw", "gold_incisor", "incisor_water_fine")
+SHADING = 0.0
+if CASE == "shaded_jaw":  # the sweep's molar in a jaw at 0.3 mm under a cone-beam scanner's shading
+    SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING, SHADING = "molar", "jaw", 0.3, 40.0, 5, "", 300.0
+elif CASE == "shaded_incisor_water":  # its incisor in water at 0.25 mm under the same shading
+    SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING, SHADING = "incisor", "water", 0.25, 40.0, 5, "", 300.0
+elif CASE == "filled_jaw":  # the sweep's molar in a jaw at 0.3 mm with an amalgam filling
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "jaw", 0.3, 40.0, 22, "12000"
 elif CASE == "filled_incisor":  # the sweep's incisor in a jaw at 0.25 mm with one
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "incisor", "jaw", 0.25, 40.0, 23, "12000"
@@ -56,6 +63,9 @@ elif CUSTOM:
     SHAPE, MEDIUM = os.environ.get("SHAPE", "molar"), os.environ.get("MEDIUM", "air")
     VOXEL, PULP_HU, SEED = float(os.environ.get("VOXEL", "0.3")), float(os.environ.get("PULP", "40")), int(os.environ.get("SEED", "1"))
     FILLING = os.environ.get("FILLING", "")  # "" none, or the filling's grey (HU; e.g. 12000 amalgam)
+    # A cone-beam scanner's shading (HU): cupping, darker toward the axis of rotation, and a
+    # ramp along it from the cone's angle. None unless asked for.
+    SHADING = float(os.environ.get("SHADING", "0"))
 INCISOR = CASE in ("incisor", "incisor_jaw", "incisor_coarse", "incisor_jaw_wide", "incisor_jaw_fine") or (CUSTOM and SHAPE == "incisor")
 rng = np.random.default_rng(SEED if CUSTOM else {"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15, "water12": 16, "scaled": 17, "fine": 18, "incisor_jaw": 19, "incisor_coarse": 20, "incisor_jaw_wide": 191, "incisor_jaw_fine": 21}[CASE])
 JAW = CASE in ("jaw", "socket", "incisor_jaw", "incisor_jaw_wide", "incisor_jaw_fine") or (CUSTOM and MEDIUM == "jaw")
@@ -147,6 +157,8 @@ if filling is not None:
 values = values.astype(np.float32)
 voxel_mm3 = np.prod(spacing) / FINE ** 3
 truth = {name: float(mask.sum() * voxel_mm3) for name, mask in (("enamel", enamel), ("dentin", dentin), ("pulp", pulp))}
+if SHADING:  # the tooth on the scan's grid, where the shading's span over it is measured
+    in_tooth = tooth.reshape(dims[0], FINE, dims[1], FINE, dims[2], FINE).mean(axis=(1, 3, 5)) > 0.5
 del crown, core, root, tooth, enamel, pulp, dentin, medium, filling
 
 # Partial volume (average of the sub-samples), then the scanner's blur and noise.
@@ -156,6 +168,15 @@ sigma_mm = 0.2
 freq = np.meshgrid(*[np.fft.fftfreq(n, d=s) for n, s in zip(dims, spacing)], indexing="ij", sparse=True)
 transfer = np.exp(-2.0 * math.pi ** 2 * sigma_mm ** 2 * sum(f ** 2 for f in freq))
 scan = np.real(np.fft.ifftn(np.fft.fftn(scan) * transfer)).astype(np.float32)
+if SHADING:
+    c = [(np.arange(n) + 0.5) * s + lo for n, s, (lo, _) in zip(dims, spacing, extent)]
+    cx, cy, cz = np.meshgrid(*c, indexing="ij", sparse=True)
+    half = [0.5 * (hi - lo) for lo, hi in extent]
+    r2 = (cx / half[0]) ** 2 + (cy / half[1]) ** 2
+    field = SHADING * (0.5 * r2 - 0.25 + 0.5 * (cz - 0.5 * (extent[2][0] + extent[2][1])) / half[2])
+    scan += field.astype(np.float32)
+    over_tooth = np.broadcast_to(field, scan.shape)[in_tooth]
+    truth_shading = float(np.percentile(over_tooth, 95) - np.percentile(over_tooth, 5))
 scan += rng.normal(0.0, 35.0, scan.shape).astype(np.float32)
 scan = scan * grey["scale"] + grey["offset"]
 if CUSTOM:
@@ -219,4 +240,4 @@ else:
     if CASE == "scaled":  # the values are 2 * stored - 1000
         image.header.set_slope_inter(2.0, -1000.0)
     nibabel.save(image, path)
-print(json.dumps({"path": path, "inside": inside, "truth": truth}))
+print(json.dumps({"path": path, "inside": inside, "truth": truth, **({"shading": truth_shading} if SHADING else {})}))

@@ -9,7 +9,7 @@ use std::time::Instant;
 use dentsim_cbct::bloom::{bloom_levels, hide_bloom_above, saturated_metal, unbloom, MetalBloom};
 use dentsim_cbct::phantom::gaussian_blur;
 use dentsim_cbct::volume::face_neighbours;
-use dentsim_cbct::{calibrate_below, within_box, crop, crop_labels, enclosed_volume, find_teeth, pad, pad_labels, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
+use dentsim_cbct::{calibrate_below, within_box, crop, crop_labels, enclosed_volume, find_teeth, pad, pad_labels, segment, tooth_box, trace_thin_canals, Calibration, FoundTooth, IndexBox, LabelVolume, Shading, Label, PartialVolume, SegmentOptions, ToothSelect, Volume};
 
 use dentsim_vdb::{LevelSet, TriMesh};
 use serde::Serialize;
@@ -19,7 +19,7 @@ use crate::tissues::{blur_fit, field};
 use crate::tissues::ligament::Ligament;
 use crate::tissues::model::TissueModel;
 use crate::tissues::table::TissueTable;
-use crate::tissues::warnings::{canal_shortfall, canal_warning, pulp_fit_warning, pulp_warning, saturated_metal_warning, MIN_PULP_SHARE, SATURATED_METAL_REACH_MM};
+use crate::tissues::warnings::{canal_shortfall, canal_warning, pulp_fit_warning, pulp_warning, saturated_metal_warning, shading_warning, MIN_PULP_SHARE, SATURATED_METAL_REACH_MM};
 
 mod edge_profiles;
 use edge_profiles::{EdgeProfiles, RootBorder, SeenUnderTheOutside};
@@ -101,6 +101,10 @@ pub struct ScanReport {
     /// segmentation ([`dentsim_cbct::bloom`]). Absent without one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub metal_bloom: Option<MetalBloom>,
+    /// How far the scan's shading ran over the tooth (grey values, its middle 90 %) where it
+    /// was taken off before the tooth was read ([`Shading`]). Absent where it ran less far.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shading_span: Option<f64>,
     pub calibration: Calibration,
     /// With every tooth segmented ([`TissuesFromScan::run_all`]): this tooth as found in the
     /// scan, and its place in the list (1 = largest).
@@ -114,13 +118,13 @@ pub struct ScanReport {
 
 /// The report's warnings (see [`crate::tissues::warnings`]): a missing or implausibly small
 /// pulp, `canal` (its canals lost), a pulp surface the fit could not bring to its measure,
-/// `metal` (a clipped restoration beside the tooth).
-fn scan_warnings(tissues: &[SegmentedTissue], calibration: &Calibration, canal: Option<String>, metal: Option<String>, scan_voxel_mm: f64) -> Vec<String> {
+/// `metal` (a clipped restoration beside the tooth), `shading` (the scan's shading taken off).
+fn scan_warnings(tissues: &[SegmentedTissue], calibration: &Calibration, canal: Option<String>, metal: Option<String>, shading: Option<String>, scan_voxel_mm: f64) -> Vec<String> {
     let volume = |name: &str| tissues.iter().find(|t| t.name == name).map_or(0.0, |t| t.volume_mm3);
     let pulp = tissues.iter().find(|t| t.name == "pulp");
     let unresolved = pulp.and_then(|p| pulp_fit_warning(p.volume_mm3, p.partial_volume.as_ref()?, p.surface_offset_mm, p.per_voxel_mm3, calibration, scan_voxel_mm));
     let missing = pulp_warning(volume("pulp"), volume("enamel") + volume("dentin") + volume("pulp"), calibration);
-    [missing, canal, unresolved, metal].into_iter().flatten().collect()
+    [missing, canal, unresolved, metal, shading].into_iter().flatten().collect()
 }
 
 /// Of the tooth's enamel and dentin (mm³), how much lies within `reach_mm` of the metal's grey
@@ -137,9 +141,24 @@ fn beside_metal(scan: &Volume, labels: &dentsim_cbct::LabelVolume, calibration: 
     (near as f64 * voxel, tooth as f64 * voxel)
 }
 
+/// The scan's tooth segmented; without bone in the scan, a pulp lost at bone's threshold is
+/// read again without bone classes ([`Calibration::without_bone`]), and the reading that finds
+/// it kept with its calibration.
+fn segment_tooth(scan: &Volume, calibration: Calibration, options: &SegmentOptions) -> dentsim_cbct::Result<(LabelVolume, Calibration)> {
+    let labels = segment(scan, &calibration, options)?;
+    if !calibration.shows_bone() && pulp_lost(&labels) {
+        let bone_free = calibration.without_bone();
+        let again = segment(scan, &bone_free, options)?;
+        if !pulp_lost(&again) {
+            return Ok((again, bone_free));
+        }
+    }
+    Ok((labels, calibration))
+}
+
 /// Whether the tooth's labels hold no pulp, or one implausibly small ([`MIN_PULP_SHARE`] of
 /// the tooth's voxels).
-fn pulp_lost(labels: &dentsim_cbct::LabelVolume) -> bool {
+fn pulp_lost(labels: &LabelVolume) -> bool {
     let count = |l: Label| labels.labels.iter().filter(|&&c| c == l as u8).count() as f64;
     let pulp = count(Label::Pulp);
     pulp < MIN_PULP_SHARE * (pulp + count(Label::Enamel) + count(Label::Dentin))
@@ -285,6 +304,35 @@ impl TissuesFromScan {
         side_by_side(teeth, teeth_at_once, one_tooth, &mut |i, step, f| go_on(&format!("tooth {}: {step}", i + 1), (i as f64 + f) / count))
     }
 
+    /// The tooth's box with the scan's shading taken off and read again, where the shading
+    /// ([`Shading`]) runs over the tooth by more than [`SHADING_SHARE`] of the enamel–dentin
+    /// contrast; else the box as it was. The scan's own reading was made through the shading
+    /// (its outside's peaks spread and shifted: a jaw's air read as soft tissue), so the box is
+    /// calibrated again; the user's thresholds, or a box that cannot be read alone, take the
+    /// tissues' grey values measured by the fit.
+    fn unshaded(&self, scan: Volume, labels: LabelVolume, region: IndexBox, calibration: &mut Calibration, options: &SegmentOptions, metal: bool) -> dentsim_cbct::Result<(Volume, LabelVolume, IndexBox, Option<Shading>)> {
+        let contrast = calibration.peak(Label::Enamel) - calibration.peak(Label::Dentin);
+        let Some(field) = Shading::fit(&scan, &labels).filter(|f| f.tooth_span() > SHADING_SHARE * contrast) else {
+            return Ok((scan, labels, region, None));
+        };
+        let scan = field.corrected(&scan);
+        let greys: Vec<String> = field.greys.iter().map(|(l, g)| format!("{} {g:.0}", l.name())).collect();
+        let why = format!("the scan's shading, {:.0} over the tooth, taken off in its box; grey values there: {}", field.tooth_span(), greys.join(", "));
+        let ceiling = if metal { calibration.mid(Label::Enamel, Label::Metal) } else { f64::INFINITY };
+        let again = match self.thresholds.is_none().then(|| calibrate_below(&scan, ceiling)).and_then(|again| again.ok()) {
+            Some(mut again) => {
+                again.evidence.push(why);
+                again
+            }
+            None => calibration.with_greys(&field.greys, why),
+        };
+        let (labels, again) = segment_tooth(&scan, again, options)?;
+        *calibration = again;
+        let inner = tooth_box(&labels, self.fdi, None, self.margin_mm)?;
+        let region = IndexBox { min: [0, 1, 2].map(|c| region.min[c] + inner.min[c]), max: [0, 1, 2].map(|c| region.min[c] + inner.max[c]) };
+        Ok((crop(&scan, &inner)?, crop_labels(&labels, &inner)?, region, Some(field)))
+    }
+
     fn run_calibrated(&self, scan: &Volume, table: &TissueTable, mut calibration: Calibration, metal_bloom: Option<MetalBloom>, mut seconds: Timings, go_on: &mut dyn FnMut(&str, f64) -> bool) -> Result<(TissueModel, ScanReport)> {
         let cbct = |e: dentsim_cbct::Error| Error::Invalid { what: format!("scan {}", scan.source.path), message: e.to_string() };
         step(go_on, "segmenting", 0.1)?;
@@ -294,22 +342,16 @@ impl TissuesFromScan {
             tooth: Some(ToothSelect { fdi: self.fdi, seed, bounds: self.bounds_mm }),
             ..SegmentOptions::default()
         };
-        let mut labels = segment(scan, &calibration, &options).map_err(cbct)?;
-        // Without bone in the scan, a pulp lost at bone's threshold is read again without bone
-        // classes ([`Calibration::without_bone`]); the reading that finds it is kept.
-        if !calibration.shows_bone() && pulp_lost(&labels) {
-            let bone_free = calibration.without_bone();
-            let again = segment(scan, &bone_free, &options).map_err(cbct)?;
-            if !pulp_lost(&again) {
-                (labels, calibration) = (again, bone_free);
-            }
-        }
+        let labels;
+        (labels, calibration) = segment_tooth(scan, calibration, &options).map_err(cbct)?;
         seconds.segment = clock.elapsed().as_secs_f64();
 
         step(go_on, "cropping to the tooth", 0.4)?;
         let clock = Instant::now();
         let region = tooth_box(&labels, self.fdi, None, self.margin_mm).map_err(cbct)?;
-        let (tooth_scan, mut tooth_labels) = close_at_the_field_of_view(crop(scan, &region).map_err(cbct)?, crop_labels(&labels, &region).map_err(cbct)?, &region, scan.dims, &calibration);
+        let (cropped, cropped_labels) = (crop(scan, &region).map_err(cbct)?, crop_labels(&labels, &region).map_err(cbct)?);
+        let (cropped, cropped_labels, region, shading) = self.unshaded(cropped, cropped_labels, region, &mut calibration, &options, metal_bloom.is_some()).map_err(cbct)?;
+        let (tooth_scan, mut tooth_labels) = close_at_the_field_of_view(cropped, cropped_labels, &region, scan.dims, &calibration);
         let rim = peel_blurred_rim(&tooth_scan, &mut tooth_labels, &calibration);
         let specks = keep_largest_component(&mut tooth_labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
         seconds.crop = clock.elapsed().as_secs_f64();
@@ -355,6 +397,7 @@ impl TissuesFromScan {
             return Err(invalid(format!("tooth {}", self.fdi), "no enamel, dentin or pulp found in the scan"));
         }
         go_on("done", 1.0);
+        let shading_said = shading.as_ref().map(|s| shading_warning(s.tooth_span(), calibration.peak(Label::Enamel) - calibration.peak(Label::Dentin)));
         let report = ScanReport {
             fdi: self.fdi,
             fdi_note: FDI_NOTE.replace("{fdi}", &self.fdi.to_string()),
@@ -372,7 +415,8 @@ impl TissuesFromScan {
                 _ => None,
             },
             metal_bloom,
-            warnings: scan_warnings(&tissues, &calibration, canal_warning, metal_warning, tooth_scan.min_spacing()),
+            shading_span: shading.as_ref().map(Shading::tooth_span),
+            warnings: scan_warnings(&tissues, &calibration, canal_warning, metal_warning, shading_said, tooth_scan.min_spacing()),
             calibration,
             found: None,
             tissues,
@@ -396,6 +440,10 @@ pub fn write_segmentation(model: &mut TissueModel, report: &ScanReport, out: &st
     })?;
     Ok(folder.join(json_name))
 }
+
+/// The shading's span over the tooth, as a share of the enamel–dentin contrast, above which the
+/// tooth is read again with the field taken off.
+const SHADING_SHARE: f64 = 0.05;
 
 /// Margin (mm) around a found tooth's box that [`TissuesFromScan::run_all`] segments it in.
 const ALL_TEETH_MARGIN_MM: f64 = 4.0;

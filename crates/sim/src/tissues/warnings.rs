@@ -119,6 +119,18 @@ pub fn saturated_metal_warning(grey: f64, voxels: usize, near_mm3: f64, tooth_mm
     })
 }
 
+/// Said where the scan's shading ([`dentsim_cbct::Shading`], `span` grey values over the tooth
+/// against its enamel–dentin `contrast`) was taken off before the tooth was read: its tissues
+/// then rest on a smooth field fitted to their grey values, which a scan with flat grey values
+/// (a CT's HU) would not need.
+pub fn shading_warning(span: f64, contrast: f64) -> String {
+    format!(
+        "the scan's grey values drift by {span:.0} over the tooth ({:.0} % of its enamel–dentin contrast: a cone-beam scanner's shading); \
+         a smooth field fitted to the tissues' grey values was taken off and the tooth's box calibrated again before it was read",
+        100.0 * span / contrast
+    )
+}
+
 /// A canal normally runs to within 1–2 mm of its root's apex; a pulp ending farther short than
 /// this share of the dentin's length (apex to crown) has lost its canals: a pulp ending at the
 /// crown's base, not an apex narrowed by age (the family: 10–20 %; its canals lost: 55–65 %).
