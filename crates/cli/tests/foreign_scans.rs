@@ -336,6 +336,10 @@ fn a_gold_filling_in_a_coarse_incisor_is_calibrated_clear_of_its_bloom() {
     segments_within("gold_incisor", &GOAL);
 }
 
+/// The shaded scans' limits: their unshaded twins read within 1.5 % (pulp 0.3 %), the shading
+/// unread took them past the 5 % and 8 %.
+const SHADED: [(&str, f64); 3] = [("enamel", 0.03), ("dentin", 0.03), ("pulp", 0.05)];
+
 /// A shaded scan within `limits`, its shading said in the report and near the one it was made with.
 fn reads_through_its_shading(case: &str, limits: &[(&str, f64)]) {
     let dir = tempfile::tempdir().unwrap();
@@ -357,12 +361,12 @@ fn a_molar_in_a_jaw_under_a_cone_beam_scanners_shading_from_nibabel() {
     // histogram spread its air into the soft tissue's place and the enamel read +5.4 %,
     // silently. The shading is now read from the tissues in the tooth's box and taken off, and
     // the box calibrated again. The same scan unshaded: enamel +1.4 %, dentin −0.8 %, pulp 0.0 %.
-    reads_through_its_shading("shaded_jaw", &[("enamel", 0.03), ("dentin", 0.03), ("pulp", 0.05)]);
+    reads_through_its_shading("shaded_jaw", &SHADED);
 }
 
 #[test]
 fn an_incisor_in_water_under_a_cone_beam_scanners_shading_keeps_its_pulp_from_nibabel() {
     // The same shading: the pulp read +8.8 % (dentin −3.9 %), silently. Unshaded: enamel
-    // +0.5 %, dentin −0.4 %, pulp −0.3 %.
-    reads_through_its_shading("shaded_incisor_water", &[("enamel", 0.03), ("dentin", 0.03), ("pulp", 0.05)]);
+    // +0.5 %, dentin −0.4 %, pulp −0.3 % (corrected: +0.4 %, −0.4 %, −0.4 %).
+    reads_through_its_shading("shaded_incisor_water", &SHADED);
 }

@@ -40,7 +40,7 @@ import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
 CUSTOM = CASE in ("custom", "shaded_jaw", "shaded_incisor_water", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling", "clipped_jaw", "gold_incisor", "incisor_water_fine")
-SHADING = 0.0
+SHADING, SHADING_FORM = 0.0, "cupping"
 if CASE == "shaded_jaw":  # the sweep's molar in a jaw at 0.3 mm under a cone-beam scanner's shading
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING, SHADING = "molar", "jaw", 0.3, 40.0, 5, "", 300.0
 elif CASE == "shaded_incisor_water":  # its incisor in water at 0.25 mm under the same shading
@@ -66,6 +66,9 @@ elif CUSTOM:
     # A cone-beam scanner's shading (HU): cupping, darker toward the axis of rotation, and a
     # ramp along it from the cone's angle. None unless asked for.
     SHADING = float(os.environ.get("SHADING", "0"))
+    # "bump": instead a scatter-like Gaussian hump of that height off the field's middle (no
+    # quadratic, which dentsim's correction fits)
+    SHADING_FORM = os.environ.get("SHADING_FORM", "cupping")
 INCISOR = CASE in ("incisor", "incisor_jaw", "incisor_coarse", "incisor_jaw_wide", "incisor_jaw_fine") or (CUSTOM and SHAPE == "incisor")
 rng = np.random.default_rng(SEED if CUSTOM else {"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15, "water12": 16, "scaled": 17, "fine": 18, "incisor_jaw": 19, "incisor_coarse": 20, "incisor_jaw_wide": 191, "incisor_jaw_fine": 21}[CASE])
 JAW = CASE in ("jaw", "socket", "incisor_jaw", "incisor_jaw_wide", "incisor_jaw_fine") or (CUSTOM and MEDIUM == "jaw")
@@ -173,7 +176,10 @@ if SHADING:
     cx, cy, cz = np.meshgrid(*c, indexing="ij", sparse=True)
     half = [0.5 * (hi - lo) for lo, hi in extent]
     r2 = (cx / half[0]) ** 2 + (cy / half[1]) ** 2
-    field = SHADING * (0.5 * r2 - 0.25 + 0.5 * (cz - 0.5 * (extent[2][0] + extent[2][1])) / half[2])
+    if SHADING_FORM == "bump":
+        field = SHADING * np.exp(-((cx - 4.0) ** 2 + (cy + 3.0) ** 2 + (cz - 2.0) ** 2) / (2.0 * 6.0 ** 2))
+    else:
+        field = SHADING * (0.5 * r2 - 0.25 + 0.5 * (cz - 0.5 * (extent[2][0] + extent[2][1])) / half[2])
     scan += field.astype(np.float32)
     over_tooth = np.broadcast_to(field, scan.shape)[in_tooth]
     truth_shading = float(np.percentile(over_tooth, 95) - np.percentile(over_tooth, 5))
