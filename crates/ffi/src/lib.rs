@@ -897,6 +897,8 @@ fn attach_warnings(surfaces: &mut [TissueSurface], warnings: &[String]) {
     for w in warnings {
         let holder = if w.starts_with(dentsim_sim::tissues::warnings::SATURATED_METAL) {
             at(surfaces, "enamel").or_else(|| at(surfaces, "dentin"))
+        } else if w.starts_with(dentsim_sim::tissues::warnings::SHADING) {
+            at(surfaces, "dentin").or_else(|| at(surfaces, "enamel"))
         } else {
             at(surfaces, "pulp").or_else(|| at(surfaces, "dentin"))
         };

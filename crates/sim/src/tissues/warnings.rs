@@ -119,13 +119,17 @@ pub fn saturated_metal_warning(grey: f64, voxels: usize, near_mm3: f64, tooth_mm
     })
 }
 
+/// How [`shading_warning`]'s text starts (the plugin puts it on the dentin's surface: it
+/// concerns the whole tooth).
+pub const SHADING: &str = "the scan's grey values drift by";
+
 /// Said where the scan's shading ([`dentsim_cbct::Shading`], `span` grey values over the tooth
 /// against its enamel–dentin `contrast`) was taken off before the tooth was read: its tissues
 /// then rest on a smooth field fitted to their grey values, which a scan with flat grey values
 /// (a CT's HU) would not need.
 pub fn shading_warning(span: f64, contrast: f64) -> String {
     format!(
-        "the scan's grey values drift by {span:.0} over the tooth ({:.0} % of its enamel–dentin contrast: a cone-beam scanner's shading); \
+        "{SHADING} {span:.0} over the tooth ({:.0} % of its enamel–dentin contrast: a cone-beam scanner's shading); \
          a smooth field fitted to the tissues' grey values was taken off and the tooth's box calibrated again before it was read",
         100.0 * span / contrast
     )
