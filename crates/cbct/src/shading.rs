@@ -119,6 +119,9 @@ impl Shading {
             let spread: Vec<f64> = (0..classes.len())
                 .map(|c| {
                     let mut r: Vec<f64> = residuals.iter().zip(&rows).filter(|(_, row)| row.0 == c).map(|(r, _)| r.abs()).collect();
+                    if r.is_empty() {
+                        return f64::INFINITY;
+                    }
                     let mid = r.len() / 2;
                     r.select_nth_unstable_by(mid, f64::total_cmp);
                     (1.4826 * r[mid]).max(1e-6)
