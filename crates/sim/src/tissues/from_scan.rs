@@ -308,29 +308,41 @@ impl TissuesFromScan {
     /// ([`Shading`]) runs over the tooth by more than [`SHADING_SHARE`] of the enamel–dentin
     /// contrast; else the box as it was. The scan's own reading was made through the shading
     /// (its outside's peaks spread and shifted: a jaw's air read as soft tissue), so the box is
-    /// calibrated again; the user's thresholds, or a box that cannot be read alone, take the
-    /// tissues' grey values measured by the fit.
-    fn unshaded(&self, scan: Volume, labels: LabelVolume, region: IndexBox, calibration: &mut Calibration, options: &SegmentOptions, metal: bool) -> dentsim_cbct::Result<(Volume, LabelVolume, IndexBox, Option<Shading>)> {
+    /// calibrated again; the user's thresholds, or a box that cannot be calibrated alone, take
+    /// the tissues' grey values measured by the fit. A box whose tooth is lost without its
+    /// shading is read as it was (the evidence says so).
+    fn unshaded(&self, scan: Volume, labels: LabelVolume, region: IndexBox, calibration: &mut Calibration, options: &SegmentOptions, metal: bool) -> (Volume, LabelVolume, IndexBox, Option<Shading>) {
         let contrast = calibration.peak(Label::Enamel) - calibration.peak(Label::Dentin);
         let Some(field) = Shading::fit(&scan, &labels).filter(|f| f.tooth_span() > SHADING_SHARE * contrast) else {
-            return Ok((scan, labels, region, None));
+            return (scan, labels, region, None);
         };
-        let scan = field.corrected(&scan);
+        let unshaded = field.corrected(&scan);
         let greys: Vec<String> = field.greys.iter().map(|(l, g)| format!("{} {g:.0}", l.name())).collect();
         let why = format!("the scan's shading, {:.0} over the tooth, taken off in its box; grey values there: {}", field.tooth_span(), greys.join(", "));
         let ceiling = if metal { calibration.mid(Label::Enamel, Label::Metal) } else { f64::INFINITY };
-        let again = match self.thresholds.is_none().then(|| calibrate_below(&scan, ceiling)).and_then(|again| again.ok()) {
+        let again = match self.thresholds.is_none().then(|| calibrate_below(&unshaded, ceiling)).and_then(|again| again.ok()) {
             Some(mut again) => {
                 again.evidence.push(why);
                 again
             }
             None => calibration.with_greys(&field.greys, why),
         };
-        let (labels, again) = segment_tooth(&scan, again, options)?;
-        *calibration = again;
-        let inner = tooth_box(&labels, self.fdi, None, self.margin_mm)?;
-        let region = IndexBox { min: [0, 1, 2].map(|c| region.min[c] + inner.min[c]), max: [0, 1, 2].map(|c| region.min[c] + inner.max[c]) };
-        Ok((crop(&scan, &inner)?, crop_labels(&labels, &inner)?, region, Some(field)))
+        let read = segment_tooth(&unshaded, again, options).and_then(|(labels, again)| {
+            let inner = tooth_box(&labels, self.fdi, None, self.margin_mm)?;
+            Ok((crop(&unshaded, &inner)?, crop_labels(&labels, &inner)?, inner, again))
+        });
+        match read {
+            Ok((scan, labels, inner, again)) => {
+                *calibration = again;
+                let region = IndexBox { min: [0, 1, 2].map(|c| region.min[c] + inner.min[c]), max: [0, 1, 2].map(|c| region.min[c] + inner.max[c]) };
+                (scan, labels, region, Some(field))
+            }
+            // The box without its shading holds no tooth to read: it is read as the scan gave it.
+            Err(e) => {
+                calibration.evidence.push(format!("the scan's shading, {:.0} over the tooth, was left on: without it the box could not be read ({e})", field.tooth_span()));
+                (scan, labels, region, None)
+            }
+        }
     }
 
     fn run_calibrated(&self, scan: &Volume, table: &TissueTable, mut calibration: Calibration, metal_bloom: Option<MetalBloom>, mut seconds: Timings, go_on: &mut dyn FnMut(&str, f64) -> bool) -> Result<(TissueModel, ScanReport)> {
@@ -350,7 +362,7 @@ impl TissuesFromScan {
         let clock = Instant::now();
         let region = tooth_box(&labels, self.fdi, None, self.margin_mm).map_err(cbct)?;
         let (cropped, cropped_labels) = (crop(scan, &region).map_err(cbct)?, crop_labels(&labels, &region).map_err(cbct)?);
-        let (cropped, cropped_labels, region, shading) = self.unshaded(cropped, cropped_labels, region, &mut calibration, &options, metal_bloom.is_some()).map_err(cbct)?;
+        let (cropped, cropped_labels, region, shading) = self.unshaded(cropped, cropped_labels, region, &mut calibration, &options, metal_bloom.is_some());
         let (tooth_scan, mut tooth_labels) = close_at_the_field_of_view(cropped, cropped_labels, &region, scan.dims, &calibration);
         let rim = peel_blurred_rim(&tooth_scan, &mut tooth_labels, &calibration);
         let specks = keep_largest_component(&mut tooth_labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
