@@ -183,16 +183,17 @@ bounds = {first.GetMetaData(i).Get(first.NAME()): first.GetBlock(i).GetBounds() 
 same("All Teeth, tooth 1", (volumes, bounds), cli(mha, "MetaImage"))
 
 
-def warnings_both_ways(case):
+def warnings_both_ways(case, keep_shading=False):
     """foreign_tooth.py's `case` segmented by `dentsim segment` and, through ParaView's NIfTI
-    reader, by Dental Tissues From Scan: the CLI report's warnings, and ParaView's blocks by name
-    with each block's `Warnings` (empty where it has none)."""
+    reader, by Dental Tissues From Scan (`keep_shading`: `--keep-shading` and Keep Shading): the
+    CLI report's warnings, and ParaView's blocks by name with each block's `Warnings` (empty
+    where it has none)."""
     made = json.loads(subprocess.run(["/usr/bin/python3" if os.path.exists("/usr/bin/python3") else "python3",
                                       os.path.join(os.path.dirname(os.path.abspath(__file__)), "../../crates/cli/tests/foreign/foreign_tooth.py"),
                                       os.path.join(temp, case), case], check=True, capture_output=True, text=True).stdout)
     out = os.path.join(temp, case + ".vdb")
-    subprocess.run([args.dentsim, "segment", made["path"], "--out", out, "--voxel", str(VOXEL_MM), "--point", ",".join(str(v) for v in made["inside"])],
-                   check=True, capture_output=True, text=True)
+    subprocess.run([args.dentsim, "segment", made["path"], "--out", out, "--voxel", str(VOXEL_MM), "--point", ",".join(str(v) for v in made["inside"])]
+                   + (["--keep-shading"] if keep_shading else []), check=True, capture_output=True, text=True)
     said = json.load(open(out + ".json"))["warnings"]
     nii = os.path.join(temp, case + ".nii")  # ParaView's NIfTI reader does not read .nii.gz
     nibabel.save(nibabel.load(made["path"]), nii)
@@ -200,6 +201,7 @@ def warnings_both_ways(case):
     tissues.UseSeedPoint = 1
     tissues.SeedPointmm = made["inside"]
     tissues.VoxelSizemm = VOXEL_MM
+    tissues.KeepShading = int(keep_shading)
     tissues.UpdatePipeline()
     data = servermanager.Fetch(tissues)
     shown = {}
@@ -234,4 +236,10 @@ said, shown = warnings_both_ways("shaded_jaw")
 check(any(w.startswith("the scan's grey values drift by") for w in said), "the CLI says the shading was taken off: %s" % said)
 check(shown["dentin"] == said, "the dentin's Warnings %s vs the CLI's %s" % (shown["dentin"], said))
 check(shown["enamel"] == [] and shown["pulp"] == [], "the shading's warning only on the dentin")
+# Keep Shading: the same drift measured and said, left on as asked, by both alike.
+kept_said, kept_shown = warnings_both_ways("shaded_jaw", keep_shading=True)
+kept = [w for w in kept_said if w.startswith("the scan's grey values drift by")]
+check(len(kept) == 1 and "left on as asked" in kept[0], "the CLI says the shading was left on: %s" % kept_said)
+check(kept[0].split(" over the tooth")[0] in [w.split(" over the tooth")[0] for w in said], "the drift measured as when taken off: %s vs %s" % (kept[0], said))
+check(kept_shown["dentin"] == kept_said, "the dentin's Warnings %s vs the CLI's %s" % (kept_shown["dentin"], kept_said))
 print("PASSED test_scan_readers")

@@ -31,6 +31,10 @@ pub struct Args {
     /// (needed where the scan's layering does not tell enamel from dentin: the error says so).
     #[arg(long, value_delimiter = ',')]
     thresholds: Vec<String>,
+    /// Leave a cone-beam scanner's shading on the grey values (it is still measured and said):
+    /// by default a smooth field found drifting over the tooth is taken off before it is read.
+    #[arg(long)]
+    keep_shading: bool,
     #[command(flatten)]
     memory: crate::args::MemoryArgs,
 }
@@ -43,6 +47,7 @@ pub fn run(args: &Args) -> Result<()> {
         fdi: args.tooth,
         seed_mm: args.point,
         thresholds,
+        keep_shading: args.keep_shading,
         ..TissuesFromScan::default()
     };
     request.validate()?;

@@ -35,11 +35,18 @@ fn make(dir: &Path, case: &str) -> Made {
 /// Segments one case: what it was made as, and the report (`None` for a refusal, which must be
 /// clear: it names the scan and how to go on, and leaves nothing behind).
 fn segmented(dir: &Path, case: &str) -> (Made, Option<serde_json::Value>) {
+    segmented_with(dir, case, &[])
+}
+
+/// As [`segmented`], `dentsim segment` given the `extra` arguments too.
+fn segmented_with(dir: &Path, case: &str, extra: &[&str]) -> (Made, Option<serde_json::Value>) {
     let made = make(dir, case);
     let vdb = dir.join(format!("{case}.vdb"));
     let point = format!("{},{},{}", made.inside[0], made.inside[1], made.inside[2]);
     let out = Command::new(env!("CARGO_BIN_EXE_dentsim"))
-        .args(["segment", &made.path, "--voxel", "0.1", "--point", &point, "--out"])
+        .args(["segment", &made.path, "--voxel", "0.1", "--point", &point])
+        .args(extra)
+        .arg("--out")
         .arg(&vdb)
         .env("RUST_BACKTRACE", "0")
         .output()
@@ -353,6 +360,27 @@ fn reads_through_its_shading(case: &str, limits: &[(&str, f64)]) {
     assert!(evidence.iter().any(|e| e.as_str().unwrap().contains("shading")), "{case}: {evidence:?}");
     let warnings = report["warnings"].as_array().unwrap();
     assert!(warnings.iter().any(|w| w.as_str().unwrap().contains(&format!("drift by {span:.0} over the tooth"))), "{case}: {warnings:?}");
+    assert_eq!(report["shading_taken_off"].as_bool(), Some(true), "{case}");
+}
+
+#[test]
+fn a_shading_kept_as_asked_is_measured_said_and_left_on() {
+    // --keep-shading: the same drift measured and said, the report saying it was left on, and
+    // the tissues read through it (the enamel and dentin are not those read with it taken off).
+    let dir = tempfile::tempdir().unwrap();
+    let (_, taken_off) = segmented(dir.path(), "shaded_jaw");
+    let taken_off = taken_off.expect("segmented");
+    let (_, kept) = segmented_with(dir.path(), "shaded_jaw", &["--keep-shading"]);
+    let kept = kept.expect("segmented, not refused");
+    assert_eq!(kept["shading_taken_off"].as_bool(), Some(false));
+    let span = kept["shading_span"].as_f64().expect("the shading measured");
+    assert_eq!(taken_off["shading_span"].as_f64(), Some(span), "one measure of the drift either way");
+    let warnings: Vec<&str> = kept["warnings"].as_array().unwrap().iter().filter_map(|w| w.as_str()).collect();
+    assert!(warnings.iter().any(|w| w.contains(&format!("drift by {span:.0} over the tooth")) && w.contains("left on as asked")), "{warnings:?}");
+    for name in ["enamel", "dentin"] {
+        let (a, b) = (volume(&kept, name).unwrap(), volume(&taken_off, name).unwrap());
+        assert!((a / b - 1.0).abs() > 1e-4, "{name}: {a} mm³ kept, {b} taken off: the switch did nothing");
+    }
 }
 
 #[test]

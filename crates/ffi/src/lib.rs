@@ -64,6 +64,8 @@ mod bridge {
         fdi: u8,
         use_seed: bool,
         seed_mm: [f64; 3],
+        /// Leave a cone-beam scanner's shading on the grey values (still measured and said).
+        keep_shading: bool,
     }
 
     /// How to start a live haptic session ("Dental Haptic Session").
@@ -532,6 +534,7 @@ fn scan_request(
         fdi: params.fdi,
         seed_mm: params.use_seed.then_some(params.seed_mm),
         thresholds,
+        keep_shading: params.keep_shading,
         ..Default::default()
     };
     Ok((scan, request))
@@ -693,7 +696,7 @@ type ScanWork<T> = fn(&ImageGeometry, Vec<f32>, &TissuesFromScanParams, &str, &s
 
 fn scan_job<T: Send + 'static>(what: &'static str, work: ScanWork<T>, geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams, scan_path: &str, thresholds: &str) -> Result<Box<Job<T>>, String> {
     let geometry = ImageGeometry { dims: geometry.dims, spacing: geometry.spacing, origin: geometry.origin, direction: geometry.direction };
-    let params = TissuesFromScanParams { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, use_seed: params.use_seed, seed_mm: params.seed_mm };
+    let params = TissuesFromScanParams { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, use_seed: params.use_seed, seed_mm: params.seed_mm, keep_shading: params.keep_shading };
     let (values, scan_path, thresholds) = (values.to_vec(), scan_path.to_owned(), thresholds.to_owned());
     Job::spawn(what, move |go_on| work(&geometry, values, &params, &scan_path, &thresholds, go_on))
 }
@@ -1083,7 +1086,7 @@ mod tests {
     #[test]
     fn images_with_bad_geometry_or_values_are_refused() {
         let geometry = ImageGeometry { dims: [4, 4, 4], spacing: [0.2; 3], origin: [0.0; 3], direction: [1., 0., 0., 0., 1., 0., 0., 0., 1.] };
-        let params = TissuesFromScanParams { voxel_size_mm: 0.05, fdi: 36, use_seed: false, seed_mm: [0.0; 3] };
+        let params = TissuesFromScanParams { voxel_size_mm: 0.05, fdi: 36, use_seed: false, seed_mm: [0.0; 3], keep_shading: false };
         let err = tissues_from_scan(&geometry, &[0.0; 10], &params).err().expect("refused");
         assert!(err.contains("input image"), "{err}");
         let mut values = vec![0.0f32; 64];
@@ -1253,7 +1256,7 @@ mod tests {
         // ImageGeometry's direction is VTK's matrix (row by row, index axes as columns).
         let direction = std::array::from_fn(|i| scan.direction[i % 3][i / 3]);
         let geometry = ImageGeometry { dims: scan.dims.map(|n| n as u32), spacing: scan.spacing, origin: scan.origin, direction };
-        let params = TissuesFromScanParams { voxel_size_mm: 0.1, fdi: 36, use_seed: false, seed_mm: [0.0; 3] };
+        let params = TissuesFromScanParams { voxel_size_mm: 0.1, fdi: 36, use_seed: false, seed_mm: [0.0; 3], keep_shading: false };
         let mut job = start_tissues_from_scan(&geometry, &scan.values, &params, "", "").unwrap();
         job.abort();
         let err = job.wait().err().expect("aborted");

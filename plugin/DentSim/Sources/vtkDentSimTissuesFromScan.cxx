@@ -134,6 +134,7 @@ int vtkDentSimTissuesFromScan::RequestData(vtkInformation*, vtkInformationVector
   params.fdi = static_cast<uint8_t>(this->Tooth > 0 && this->Tooth < 256 ? this->Tooth : 0);
   params.use_seed = this->UseSeedPoint;
   for (int i = 0; i < 3; ++i) params.seed_mm[i] = this->SeedPoint[i];
+  params.keep_shading = this->KeepShading;
   vtkMultiBlockDataSet* output = vtkMultiBlockDataSet::GetData(outputVector, 0);
   const rust::Slice<const float> grey(values.data(), values.size());
   const char* thresholds = this->Thresholds ? this->Thresholds : "";
@@ -199,4 +200,5 @@ void vtkDentSimTissuesFromScan::PrintSelf(ostream& os, vtkIndent indent) {
   os << indent << "ReadScanFile: " << this->ReadScanFile << "\n";
   os << indent << "AllTeeth: " << this->AllTeeth << "\n";
   os << indent << "Thresholds: " << (this->Thresholds ? this->Thresholds : "") << "\n";
+  os << indent << "KeepShading: " << this->KeepShading << "\n";
 }

@@ -35,6 +35,8 @@ public:
   vtkGetMacro(AllTeeth, bool);
   vtkSetStringMacro(Thresholds);
   vtkGetStringMacro(Thresholds);
+  vtkSetMacro(KeepShading, bool);
+  vtkGetMacro(KeepShading, bool);
 
 protected:
   vtkDentSimTissuesFromScan();
@@ -50,6 +52,7 @@ protected:
   bool ReadScanFile = true;
   bool AllTeeth = false;
   char* Thresholds = nullptr;
+  bool KeepShading = false;
 
 private:
   vtkDentSimTissuesFromScan(const vtkDentSimTissuesFromScan&) = delete;

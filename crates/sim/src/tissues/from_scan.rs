@@ -19,7 +19,7 @@ use crate::tissues::{blur_fit, field};
 use crate::tissues::ligament::Ligament;
 use crate::tissues::model::TissueModel;
 use crate::tissues::table::TissueTable;
-use crate::tissues::warnings::{canal_shortfall, canal_warning, pulp_fit_warning, pulp_warning, saturated_metal_warning, shading_warning, MIN_PULP_SHARE, SATURATED_METAL_REACH_MM};
+use crate::tissues::warnings::{canal_shortfall, canal_warning, pulp_fit_warning, pulp_warning, saturated_metal_warning, shading_warning, Unshading, MIN_PULP_SHARE, SATURATED_METAL_REACH_MM};
 
 mod edge_profiles;
 use edge_profiles::{EdgeProfiles, RootBorder, SeenUnderTheOutside};
@@ -38,11 +38,13 @@ pub struct TissuesFromScan {
     pub thresholds: Option<Vec<(Label, f64)>>,
     /// Scan kept around the tooth, mm.
     pub margin_mm: f64,
+    /// Leave a shading found over the tooth on the scan (it is still measured and said).
+    pub keep_shading: bool,
 }
 
 impl Default for TissuesFromScan {
     fn default() -> Self {
-        TissuesFromScan { voxel_size_mm: crate::tissues::model::DEFAULT_VOXEL_MM, fdi: 36, seed_mm: None, bounds_mm: None, thresholds: None, margin_mm: 1.0 }
+        TissuesFromScan { voxel_size_mm: crate::tissues::model::DEFAULT_VOXEL_MM, fdi: 36, seed_mm: None, bounds_mm: None, thresholds: None, margin_mm: 1.0, keep_shading: false }
     }
 }
 
@@ -102,9 +104,13 @@ pub struct ScanReport {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub metal_bloom: Option<MetalBloom>,
     /// How far the scan's shading ran over the tooth (grey values, its middle 90 %) where it
-    /// was taken off before the tooth was read ([`Shading`]). Absent where it ran less far.
+    /// ran far enough to take off ([`Shading`]). Absent where it ran less far.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub shading_span: Option<f64>,
+    /// Whether that shading was taken off before the tooth was read (not when asked to keep
+    /// it, nor where the box without it held no tooth).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub shading_taken_off: Option<bool>,
     pub calibration: Calibration,
     /// With every tooth segmented ([`TissuesFromScan::run_all`]): this tooth as found in the
     /// scan, and its place in the list (1 = largest).
@@ -310,12 +316,16 @@ impl TissuesFromScan {
     /// (its outside's peaks spread and shifted: a jaw's air read as soft tissue), so the box is
     /// calibrated again; the user's thresholds, or a box that cannot be calibrated alone, take
     /// the tissues' grey values measured by the fit. A box whose tooth is lost without its
-    /// shading is read as it was (the evidence says so).
-    fn unshaded(&self, scan: Volume, labels: LabelVolume, region: IndexBox, calibration: &mut Calibration, options: &SegmentOptions, metal: bool) -> (Volume, LabelVolume, IndexBox, Option<Shading>) {
+    /// shading, or a shading the user keeps, is read as it was (the evidence says so).
+    fn unshaded(&self, scan: Volume, labels: LabelVolume, region: IndexBox, calibration: &mut Calibration, options: &SegmentOptions, metal: bool) -> (Volume, LabelVolume, IndexBox, Option<(Shading, Unshading)>) {
         let contrast = calibration.peak(Label::Enamel) - calibration.peak(Label::Dentin);
         let Some(field) = Shading::fit(&scan, &labels).filter(|f| f.tooth_span() > SHADING_SHARE * contrast) else {
             return (scan, labels, region, None);
         };
+        if self.keep_shading {
+            calibration.evidence.push(format!("the scan's shading, {:.0} over the tooth, was left on as asked", field.tooth_span()));
+            return (scan, labels, region, Some((field, Unshading::KeptAsAsked)));
+        }
         let unshaded = field.corrected(&scan);
         let greys: Vec<String> = field.greys.iter().map(|(l, g)| format!("{} {g:.0}", l.name())).collect();
         let why = format!("the scan's shading, {:.0} over the tooth, taken off in its box; grey values there: {}", field.tooth_span(), greys.join(", "));
@@ -335,12 +345,12 @@ impl TissuesFromScan {
             Ok((scan, labels, inner, again)) => {
                 *calibration = again;
                 let region = IndexBox { min: [0, 1, 2].map(|c| region.min[c] + inner.min[c]), max: [0, 1, 2].map(|c| region.min[c] + inner.max[c]) };
-                (scan, labels, region, Some(field))
+                (scan, labels, region, Some((field, Unshading::TakenOff)))
             }
             // The box without its shading holds no tooth to read: it is read as the scan gave it.
             Err(e) => {
                 calibration.evidence.push(format!("the scan's shading, {:.0} over the tooth, was left on: without it the box could not be read ({e})", field.tooth_span()));
-                (scan, labels, region, None)
+                (scan, labels, region, Some((field, Unshading::KeptUnreadable)))
             }
         }
     }
@@ -409,7 +419,7 @@ impl TissuesFromScan {
             return Err(invalid(format!("tooth {}", self.fdi), "no enamel, dentin or pulp found in the scan"));
         }
         go_on("done", 1.0);
-        let shading_said = shading.as_ref().map(|s| shading_warning(s.tooth_span(), calibration.peak(Label::Enamel) - calibration.peak(Label::Dentin)));
+        let shading_said = shading.as_ref().map(|(s, done)| shading_warning(s.tooth_span(), calibration.peak(Label::Enamel) - calibration.peak(Label::Dentin), *done));
         let report = ScanReport {
             fdi: self.fdi,
             fdi_note: FDI_NOTE.replace("{fdi}", &self.fdi.to_string()),
@@ -427,7 +437,8 @@ impl TissuesFromScan {
                 _ => None,
             },
             metal_bloom,
-            shading_span: shading.as_ref().map(Shading::tooth_span),
+            shading_span: shading.as_ref().map(|(s, _)| s.tooth_span()),
+            shading_taken_off: shading.as_ref().map(|(_, done)| *done == Unshading::TakenOff),
             warnings: scan_warnings(&tissues, &calibration, canal_warning, metal_warning, shading_said, tooth_scan.min_spacing()),
             calibration,
             found: None,

@@ -123,16 +123,27 @@ pub fn saturated_metal_warning(grey: f64, voxels: usize, near_mm3: f64, tooth_mm
 /// concerns the whole tooth).
 pub const SHADING: &str = "the scan's grey values drift by";
 
+/// What was done with a shading found over the tooth.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unshading {
+    TakenOff,
+    /// The user asked for the scan's grey values as they are.
+    KeptAsAsked,
+    /// The box with the field taken off held no tooth to read.
+    KeptUnreadable,
+}
+
 /// Said where the scan's shading ([`dentsim_cbct::Shading`], `span` grey values over the tooth
-/// against its enamel–dentin `contrast`) was taken off before the tooth was read: its tissues
-/// then rest on a smooth field fitted to their grey values, which a scan with flat grey values
-/// (a CT's HU) would not need.
-pub fn shading_warning(span: f64, contrast: f64) -> String {
-    format!(
-        "{SHADING} {span:.0} over the tooth ({:.0} % of its enamel–dentin contrast: a cone-beam scanner's shading); \
-         a smooth field fitted to the tissues' grey values was taken off and the tooth's box calibrated again before it was read",
-        100.0 * span / contrast
-    )
+/// against its enamel–dentin `contrast`) was found: taken off, its tissues rest on a smooth
+/// field fitted to their grey values, which a scan with flat grey values (a CT's HU) would not
+/// need; left on, one set of thresholds is read across grey values that drift by it.
+pub fn shading_warning(span: f64, contrast: f64, done: Unshading) -> String {
+    let what = match done {
+        Unshading::TakenOff => "a smooth field fitted to the tissues' grey values was taken off and the tooth's box calibrated again before it was read",
+        Unshading::KeptAsAsked => "it was left on as asked, so the tissues' borders move with it where it runs far from the tooth's middle",
+        Unshading::KeptUnreadable => "it was left on, for the box with a field fitted to it taken off held no tooth to read: the tissues' borders move with it",
+    };
+    format!("{SHADING} {span:.0} over the tooth ({:.0} % of its enamel–dentin contrast: a cone-beam scanner's shading); {what}", 100.0 * span / contrast)
 }
 
 /// A canal normally runs to within 1–2 mm of its root's apex; a pulp ending farther short than
