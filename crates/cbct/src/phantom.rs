@@ -1002,7 +1002,7 @@ impl Phantom {
     /// [`PhantomSpec::shading_hu`] over the scan's grid (its axes scaled to −1…1).
     fn add_shading(&self, hu: &mut [f32]) {
         let [nx, ny, nz] = self.spec.dims;
-        let scaled = |c: usize, n: usize| crate::shading::box_coordinate(c, n) as f32;
+        let scaled = |c: usize, n: usize| crate::shading::box_coordinate(c as f64, n) as f32;
         let s = self.spec.shading_hu;
         hu.par_chunks_mut(nx * ny).enumerate().for_each(|(k, slab)| {
             let z = scaled(k, nz);

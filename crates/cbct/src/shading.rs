@@ -46,16 +46,16 @@ pub struct Shading {
     pub greys: Vec<(Label, f64)>,
 }
 
-/// A voxel index's place along an axis of `n` voxels, scaled to −1…1.
-pub fn box_coordinate(c: usize, n: usize) -> f64 {
+/// A voxel index's place along an axis of `n` voxels, scaled to −1…1 (beyond them outside).
+pub fn box_coordinate(c: f64, n: usize) -> f64 {
     if n > 1 {
-        2.0 * c as f64 / (n - 1) as f64 - 1.0
+        2.0 * c / (n - 1) as f64 - 1.0
     } else {
         0.0
     }
 }
 
-fn basis([nx, ny, nz]: [usize; 3], i: usize, j: usize, k: usize) -> [f64; TERMS] {
+fn basis([nx, ny, nz]: [usize; 3], [i, j, k]: [f64; 3]) -> [f64; TERMS] {
     let (x, y, z) = (box_coordinate(i, nx), box_coordinate(j, ny), box_coordinate(k, nz));
     let mut terms = [0.0; TERMS];
     let mut t = 0;
@@ -114,7 +114,7 @@ impl Shading {
         });
         let unknowns = classes.len() + TERMS;
         let column = |class: usize| classes.iter().position(|&c| c == class).expect("kept classes");
-        let at = |n: usize| basis(dims, n % nx, (n / nx) % ny, n / (nx * ny));
+        let at = |n: usize| basis(dims, [n % nx, (n / nx) % ny, n / (nx * ny)].map(|c| c as f64));
         let rows: Vec<(usize, [f64; TERMS])> = samples.iter().map(|s| (column(s.1), at(s.0))).collect();
         let mut weights = vec![1.0f64; samples.len()];
         let mut solution = vec![0.0f64; unknowns];
@@ -177,10 +177,17 @@ impl Shading {
 
     /// `scan` (the box the field was read in) with the field taken off, its dentin's grey kept.
     pub fn corrected(&self, scan: &Volume) -> Volume {
+        self.corrected_around(scan, [0; 3])
+    }
+
+    /// As [`Self::corrected`] for a box holding the one the field was read in, whose first
+    /// voxel lies at `at` in it (beyond it the field is held within its range).
+    pub fn corrected_around(&self, scan: &Volume, at: [usize; 3]) -> Volume {
         let mut out = scan.clone();
-        let [nx, ny, _] = self.dims;
+        let [nx, ny, _] = scan.dims;
         for (n, v) in out.values.iter_mut().enumerate() {
-            let f = dot(&self.coefficients, &basis(self.dims, n % nx, (n / nx) % ny, n / (nx * ny))).clamp(self.held.0, self.held.1) - self.dentin_mean;
+            let place = [n % nx, (n / nx) % ny, n / (nx * ny)];
+            let f = dot(&self.coefficients, &basis(self.dims, [0, 1, 2].map(|c| place[c] as f64 - at[c] as f64))).clamp(self.held.0, self.held.1) - self.dentin_mean;
             *v = (f64::from(*v) - f) as f32;
         }
         out
@@ -308,7 +315,7 @@ mod tests {
         let taken = |n: usize| f64::from(scan.values[n]) - f64::from(corrected.values[n]);
         let read = (0..bone_from).filter(|&n| labels.labels[n] != Label::BoneCortical as u8).map(taken);
         let (lo, hi) = read.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)));
-        let unheld = |n: usize| dot(&field.coefficients, &basis(N, n % N[0], (n / N[0]) % N[1], n / (N[0] * N[1]))) - field.dentin_mean;
+        let unheld = |n: usize| dot(&field.coefficients, &basis(N, [n % N[0], (n / N[0]) % N[1], n / (N[0] * N[1])].map(|c| c as f64))) - field.dentin_mean;
         assert!((bone_from..scan.len()).any(|n| !(lo - 0.01..=hi + 0.01).contains(&unheld(n))), "the fit does not swing past the tissues here: no test");
         for n in bone_from..scan.len() {
             assert!((lo - 0.01..=hi + 0.01).contains(&taken(n)), "{:.1} taken off the bone, {lo:.1}…{hi:.1} off the tissues", taken(n));
@@ -319,6 +326,28 @@ mod tests {
         let worst = (bone_from..scan.len()).map(|n| off(f64::from(corrected.values[n]))).fold(0.0, f64::max);
         let carried = (bone_from..scan.len()).map(|n| off(f64::from(scan.values[n]) - unheld(n))).fold(0.0, f64::max);
         assert!(worst < carried, "the bone up to {worst:.0} off its grey, the field carried on {carried:.0}");
+    }
+
+    #[test]
+    fn a_field_read_in_a_box_is_taken_off_a_box_around_it_alike() {
+        // Read in the inner box (4 voxels in from every face), taken off the whole: the inner
+        // box's voxels as taken off the inner box alone, the rest held within the field's range.
+        let shading = |[x, y, z]: [f64; 3]| 300.0 * (((x - 6.0).powi(2) + (y - 6.0).powi(2)) / 72.0) + 200.0 * z / 18.0;
+        let (scan, labels) = scan(&shading, 0.0);
+        let inner = crate::IndexBox { min: [4; 3], max: [0, 1, 2].map(|c| N[c] - 4) };
+        let (part, part_labels) = (crate::crop(&scan, &inner).unwrap(), crate::crop_labels(&labels, &inner).unwrap());
+        let field = Shading::fit(&part, &part_labels).expect("read");
+        let (alone, around) = (field.corrected(&part), field.corrected_around(&scan, inner.min));
+        for (n, &v) in alone.values.iter().enumerate() {
+            let [i, j, k] = [n % part.dims[0], (n / part.dims[0]) % part.dims[1], n / (part.dims[0] * part.dims[1])];
+            assert_eq!(v, around.values[scan.index(i + 4, j + 4, k + 4)], "voxel {i} {j} {k} of the inner box");
+        }
+        let taken = (0..scan.len()).map(|n| f64::from(scan.values[n] - around.values[n]));
+        let (lo, hi) = taken.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), t| (lo.min(t), hi.max(t)));
+        assert!(lo >= field.held.0 - field.dentin_mean - 0.1 && hi <= field.held.1 - field.dentin_mean + 0.1, "{lo:.1}…{hi:.1} taken off");
+        // and the whole box's dentin is flat again, its far corners too
+        let corrected_spread = spread(&around, &labels, Label::Dentin);
+        assert!(corrected_spread < 45.0, "dentin spread {corrected_spread:.1} over the whole box");
     }
 
     #[test]

@@ -28,7 +28,8 @@ clipped, in a molar in a jaw at 0.2 mm), or gold_incisor (an unclipped 30000 HU 
 at 0.3 mm, its pulp 300 HU, int16 as the sweep's; stored as float32 the same scan was not refused), or incisor_water_fine
 (custom's incisor in water at 0.1 mm, the point spread two voxels wide, int16 as the sweep's), or shaded_jaw / shaded_incisor_water
 (custom's molar in a jaw at 0.3 mm / incisor in water at 0.25 mm under a cone-beam shading of 300 HU: SHADING, also custom's,
-a cupping toward the field's axis and a ramp along it; the JSON then gives its span over the tooth, 5th to 95th percentile). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+a cupping toward the field's axis and a ramp along it; the JSON then gives its span over the tooth, 5th to 95th percentile), or
+humped_incisor_jaw (custom's incisor in a jaw at 0.25 mm under a 400 HU Gaussian hump of scatter, SHADING_FORM=bump). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -39,12 +40,14 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-CUSTOM = CASE in ("custom", "shaded_jaw", "shaded_incisor_water", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling", "clipped_jaw", "gold_incisor", "incisor_water_fine")
+CUSTOM = CASE in ("custom", "shaded_jaw", "shaded_incisor_water", "humped_incisor_jaw", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling", "clipped_jaw", "gold_incisor", "incisor_water_fine")
 SHADING, SHADING_FORM = 0.0, "cupping"
 if CASE == "shaded_jaw":  # the sweep's molar in a jaw at 0.3 mm under a cone-beam scanner's shading
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING, SHADING = "molar", "jaw", 0.3, 40.0, 5, "", 300.0
 elif CASE == "shaded_incisor_water":  # its incisor in water at 0.25 mm under the same shading
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING, SHADING = "incisor", "water", 0.25, 40.0, 5, "", 300.0
+elif CASE == "humped_incisor_jaw":  # the sweep's incisor_jaw_0.25_40 (its seed) under a 400 HU hump of scatter
+    SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING, SHADING, SHADING_FORM = "incisor", "jaw", 0.25, 40.0, 191, "", 400.0, "bump"
 elif CASE == "filled_jaw":  # the sweep's molar in a jaw at 0.3 mm with an amalgam filling
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "jaw", 0.3, 40.0, 22, "12000"
 elif CASE == "filled_incisor":  # the sweep's incisor in a jaw at 0.25 mm with one

@@ -315,9 +315,12 @@ impl TissuesFromScan {
     /// contrast; else the box as it was. The scan's own reading was made through the shading
     /// (its outside's peaks spread and shifted: a jaw's air read as soft tissue), so the box is
     /// calibrated again; the user's thresholds, or a box that cannot be calibrated alone, take
-    /// the tissues' grey values measured by the fit. A box whose tooth is lost without its
-    /// shading, or a shading the user keeps, is read as it was (the evidence says so).
-    fn unshaded(&self, scan: Volume, labels: LabelVolume, region: IndexBox, calibration: &mut Calibration, options: &SegmentOptions, metal: bool) -> (Volume, LabelVolume, IndexBox, Option<(Shading, Unshading)>) {
+    /// the tissues' grey values measured by the fit. It is read again in the box grown by
+    /// [`SHADING_REREAD_MARGIN_MM`] within `whole` (the scan), then cropped to the tooth. A box
+    /// whose tooth is lost without its shading, or a shading the user keeps, is read as it was
+    /// (the evidence says so).
+    #[allow(clippy::too_many_arguments)]
+    fn unshaded(&self, whole: &Volume, scan: Volume, labels: LabelVolume, region: IndexBox, calibration: &mut Calibration, options: &SegmentOptions, metal: bool) -> (Volume, LabelVolume, IndexBox, Option<(Shading, Unshading)>) {
         let contrast = calibration.peak(Label::Enamel) - calibration.peak(Label::Dentin);
         let Some(field) = Shading::fit(&scan, &labels).filter(|f| f.tooth_span() > SHADING_SHARE * contrast) else {
             return (scan, labels, region, None);
@@ -326,7 +329,15 @@ impl TissuesFromScan {
             calibration.evidence.push(format!("the scan's shading, {:.0} over the tooth, was left on as asked", field.tooth_span()));
             return (scan, labels, region, Some((field, Unshading::KeptAsAsked)));
         }
-        let unshaded = field.corrected(&scan);
+        let reach = [0, 1, 2].map(|c| (SHADING_REREAD_MARGIN_MM / whole.spacing[c]).ceil() as usize);
+        let grown = IndexBox { min: [0, 1, 2].map(|c| region.min[c].saturating_sub(reach[c])), max: [0, 1, 2].map(|c| (region.max[c] + reach[c]).min(whole.dims[c])) };
+        let unshaded = match crop(whole, &grown) {
+            Ok(part) => field.corrected_around(&part, [0, 1, 2].map(|c| region.min[c] - grown.min[c])),
+            Err(e) => {
+                calibration.evidence.push(format!("the scan's shading, {:.0} over the tooth, was left on: its box could not be grown ({e})", field.tooth_span()));
+                return (scan, labels, region, Some((field, Unshading::KeptUnreadable)));
+            }
+        };
         let greys: Vec<String> = field.greys.iter().map(|(l, g)| format!("{} {g:.0}", l.name())).collect();
         let why = format!("the scan's shading, {:.0} over the tooth, taken off in its box; grey values there: {}", field.tooth_span(), greys.join(", "));
         let ceiling = if metal { calibration.mid(Label::Enamel, Label::Metal) } else { f64::INFINITY };
@@ -344,7 +355,7 @@ impl TissuesFromScan {
         match read {
             Ok((scan, labels, inner, again)) => {
                 *calibration = again;
-                let region = IndexBox { min: [0, 1, 2].map(|c| region.min[c] + inner.min[c]), max: [0, 1, 2].map(|c| region.min[c] + inner.max[c]) };
+                let region = IndexBox { min: [0, 1, 2].map(|c| grown.min[c] + inner.min[c]), max: [0, 1, 2].map(|c| grown.min[c] + inner.max[c]) };
                 (scan, labels, region, Some((field, Unshading::TakenOff)))
             }
             // The box without its shading holds no tooth to read: it is read as the scan gave it.
@@ -372,7 +383,7 @@ impl TissuesFromScan {
         let clock = Instant::now();
         let region = tooth_box(&labels, self.fdi, None, self.margin_mm).map_err(cbct)?;
         let (cropped, cropped_labels) = (crop(scan, &region).map_err(cbct)?, crop_labels(&labels, &region).map_err(cbct)?);
-        let (cropped, cropped_labels, region, shading) = self.unshaded(cropped, cropped_labels, region, &mut calibration, &options, metal_bloom.is_some());
+        let (cropped, cropped_labels, region, shading) = self.unshaded(scan, cropped, cropped_labels, region, &mut calibration, &options, metal_bloom.is_some());
         let (tooth_scan, mut tooth_labels) = close_at_the_field_of_view(cropped, cropped_labels, &region, scan.dims, &calibration);
         let rim = peel_blurred_rim(&tooth_scan, &mut tooth_labels, &calibration);
         let specks = keep_largest_component(&mut tooth_labels, Label::Dentin, Label::Enamel, Label::BoneCortical);
@@ -467,6 +478,11 @@ pub fn write_segmentation(model: &mut TissueModel, report: &ScanReport, out: &st
 /// The shading's span over the tooth, as a share of the enamel–dentin contrast, above which the
 /// tooth is read again with the field taken off.
 const SHADING_SHARE: f64 = 0.05;
+
+/// Margin (mm) the tooth's box is grown by where it is read again with its shading taken off:
+/// segmented alone, a box 1 mm about the tooth lost a jaw incisor's pulp (0.25 mm voxels: its
+/// canal's apex near the box's face); 2 mm kept it.
+const SHADING_REREAD_MARGIN_MM: f64 = 3.0;
 
 /// Margin (mm) around a found tooth's box that [`TissuesFromScan::run_all`] segments it in.
 const ALL_TEETH_MARGIN_MM: f64 = 4.0;
