@@ -348,7 +348,13 @@ impl TissuesFromScan {
             }
             None => calibration.with_greys(&field.greys, why),
         };
-        let read = segment_tooth(&unshaded, again, options).and_then(|(labels, again)| {
+        // The tooth's bounds were found through the shading (--all-teeth): grown as the box is.
+        let mut options = options.clone();
+        if let Some((lo, hi)) = options.tooth.as_mut().and_then(|t| t.bounds.as_mut()) {
+            lo.iter_mut().for_each(|v| *v -= SHADING_REREAD_MARGIN_MM);
+            hi.iter_mut().for_each(|v| *v += SHADING_REREAD_MARGIN_MM);
+        }
+        let read = segment_tooth(&unshaded, again, &options).and_then(|(labels, again)| {
             let inner = tooth_box(&labels, self.fdi, None, self.margin_mm)?;
             Ok((crop(&unshaded, &inner)?, crop_labels(&labels, &inner)?, inner, again))
         });
