@@ -22,6 +22,13 @@ impl IndexBox {
     pub fn dims(&self) -> [usize; 3] {
         [self.max[0] - self.min[0], self.max[1] - self.min[1], self.max[2] - self.min[2]]
     }
+
+    /// The box grown by `margin_mm` (whole voxels of `spacing`, at least the margin) on every
+    /// side, kept within a grid of `dims`.
+    pub fn grown(&self, margin_mm: f64, spacing: [f64; 3], dims: [usize; 3]) -> IndexBox {
+        let reach = [0, 1, 2].map(|c| (margin_mm.max(0.0) / spacing[c]).ceil() as usize);
+        IndexBox { min: [0, 1, 2].map(|c| self.min[c].saturating_sub(reach[c])), max: [0, 1, 2].map(|c| (self.max[c] + reach[c]).min(dims[c])) }
+    }
     fn check(&self, dims: [usize; 3]) -> Result<()> {
         if (0..3).any(|c| self.min[c] >= self.max[c] || self.max[c] > dims[c]) {
             return Err(Error::invalid("box", format!("{self:?} is empty or outside dims {dims:?}")));
@@ -140,13 +147,7 @@ pub fn tooth_box(lv: &LabelVolume, fdi: u8, point_or_box: Option<([f64; 3], [f64
     if lo[0] == usize::MAX {
         return Err(Error::invalid("labels", format!("no tooth tissue found for tooth {fdi}")));
     }
-    let mut b = IndexBox { min: [0; 3], max: [0; 3] };
-    for c in 0..3 {
-        let m = (margin_mm.max(0.0) / lv.spacing[c]).ceil() as usize;
-        b.min[c] = lo[c].saturating_sub(m);
-        b.max[c] = (hi[c] + 1 + m).min(lv.dims[c]);
-    }
-    Ok(b)
+    Ok(IndexBox { min: lo, max: hi.map(|v| v + 1) }.grown(margin_mm, lv.spacing, lv.dims))
 }
 
 /// Keeps the slab between two planes (each normal pointing into the slab): the grid is cropped

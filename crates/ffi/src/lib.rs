@@ -51,6 +51,7 @@ mod bridge {
 
     /// A scalar image as VTK holds it: world = origin + direction · (ijk ∘ spacing), with the
     /// direction matrix row-major (column c is index axis c), x fastest in the values.
+    #[derive(Clone)]
     struct ImageGeometry {
         dims: [u32; 3],
         spacing: [f64; 3],
@@ -59,6 +60,7 @@ mod bridge {
     }
 
     /// Which tooth to turn into tissues, and how finely.
+    #[derive(Clone)]
     struct TissuesFromScanParams {
         voxel_size_mm: f64,
         fdi: u8,
@@ -695,8 +697,7 @@ impl<T: Send + 'static> Drop for Job<T> {
 type ScanWork<T> = fn(&ImageGeometry, Vec<f32>, &TissuesFromScanParams, &str, &str, &mut dyn FnMut(f64) -> bool) -> Result<T, String>;
 
 fn scan_job<T: Send + 'static>(what: &'static str, work: ScanWork<T>, geometry: &ImageGeometry, values: &[f32], params: &TissuesFromScanParams, scan_path: &str, thresholds: &str) -> Result<Box<Job<T>>, String> {
-    let geometry = ImageGeometry { dims: geometry.dims, spacing: geometry.spacing, origin: geometry.origin, direction: geometry.direction };
-    let params = TissuesFromScanParams { voxel_size_mm: params.voxel_size_mm, fdi: params.fdi, use_seed: params.use_seed, seed_mm: params.seed_mm, keep_shading: params.keep_shading };
+    let (geometry, params) = (geometry.clone(), params.clone());
     let (values, scan_path, thresholds) = (values.to_vec(), scan_path.to_owned(), thresholds.to_owned());
     Job::spawn(what, move |go_on| work(&geometry, values, &params, &scan_path, &thresholds, go_on))
 }

@@ -329,8 +329,7 @@ impl TissuesFromScan {
             calibration.evidence.push(format!("the scan's shading, {:.0} over the tooth, was left on as asked", field.tooth_span()));
             return (scan, labels, region, Some((field, Unshading::KeptAsAsked)));
         }
-        let reach = [0, 1, 2].map(|c| (SHADING_REREAD_MARGIN_MM / whole.spacing[c]).ceil() as usize);
-        let grown = IndexBox { min: [0, 1, 2].map(|c| region.min[c].saturating_sub(reach[c])), max: [0, 1, 2].map(|c| (region.max[c] + reach[c]).min(whole.dims[c])) };
+        let grown = region.grown(SHADING_REREAD_MARGIN_MM, whole.spacing, whole.dims);
         let unshaded = match crop(whole, &grown) {
             Ok(part) => field.corrected_around(&part, [0, 1, 2].map(|c| region.min[c] - grown.min[c])),
             Err(e) => {
