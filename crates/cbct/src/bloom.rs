@@ -46,6 +46,28 @@ pub struct MetalBloom {
     /// Voxels given the grey beyond the bloom (not counting a clipped metal's own, raised to the
     /// ceiling).
     pub voxels: usize,
+    /// The largest measured (unclipped) restoration's cupping.
+    pub cupping: Option<Cupping>,
+}
+
+/// A restoration's grey at its brightest and in its middle. A metal that hardens the scanner's
+/// beam reads darker in its middle than near its edge (its rays' attenuation read short, the more
+/// the longer their path through it), and the same error streaks the tissue about it; an
+/// unhardened metal's middle is its brightest part.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Cupping {
+    /// The median of its brightest tenth (its metal's grey as read).
+    pub brightest: f64,
+    /// The median of its deepest tenth (its voxels farthest inside it).
+    pub middle: f64,
+}
+
+impl Cupping {
+    /// How far its middle falls below its brightest, as a share of its brightest's lift over
+    /// `enamel`.
+    pub fn share(&self, enamel: f64) -> f64 {
+        (self.brightest - self.middle) / (self.brightest - enamel)
+    }
 }
 
 /// The fewest metal voxels (a 3³ block) of a restoration worth a look, and the fewest sharing
@@ -198,13 +220,28 @@ pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> 
     let enamel = cal.peak(Label::Enamel);
     let is_metal: Vec<bool> = part.values.par_iter().map(|&v| classifier.classify(f64::from(v)) == Label::Metal).collect();
     let (component, sizes) = components(d, &is_metal);
-    let mut members: Vec<Vec<f32>> = sizes.iter().map(|&n| Vec::with_capacity(if n >= MIN_METAL_VOXELS { n } else { 0 })).collect();
+    let not_metal: Vec<bool> = is_metal.iter().map(|&m| !m).collect();
+    let depth = distance_mm(d, part.spacing, &not_metal);
+    let mut members: Vec<Vec<(f32, f32)>> = sizes.iter().map(|&n| Vec::with_capacity(if n >= MIN_METAL_VOXELS { n } else { 0 })).collect();
     for (l, &c) in component.iter().enumerate().filter(|(_, &c)| c != 0 && sizes[c as usize] >= MIN_METAL_VOXELS) {
-        members[c as usize].push(part.values[l]);
+        members[c as usize].push((part.values[l], depth[l]));
     }
+    // Each restoration's middle: the median grey of its deepest tenth.
+    let middles: Vec<Option<f64>> = members
+        .iter_mut()
+        .map(|voxels| {
+            voxels.sort_by(|a, b| a.1.total_cmp(&b.1));
+            let mut deepest: Vec<f32> = voxels[voxels.len() * 9 / 10..].iter().map(|v| v.0).collect();
+            (deepest.len() >= MIN_CORE_VOXELS).then(|| {
+                let mid = deepest.len() / 2;
+                f64::from(*deepest.select_nth_unstable_by(mid, f32::total_cmp).1)
+            })
+        })
+        .collect();
     let cores: Vec<Option<Core>> = members
         .into_iter()
-        .map(|mut greys| {
+        .map(|voxels| {
+            let mut greys: Vec<f32> = voxels.into_iter().map(|v| v.0).collect();
             greys.sort_by(f32::total_cmp);
             let brightest = &greys[greys.len() * 9 / 10..];
             let grey = f64::from(*brightest.get(brightest.len() / 2)?);
@@ -386,7 +423,9 @@ pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> 
         let n = out.index(i, j, k);
         out.values[n] = v;
     }
-    let bloom = MetalBloom { metal_greys: found.into_iter().map(|(_, g)| g).collect(), clipped_at: ceiling.filter(|_| clipped_grey.iter().any(Option::is_some)), blur_mm, reach_mm, voxels: changed.len() };
+    let measured = (0..cores.len()).filter(|&c| matches!(cores[c], Some(Core::Measured(_)))).max_by_key(|&c| sizes[c]);
+    let cupping = measured.and_then(|c| Some(Cupping { brightest: metal_grey[c]?, middle: middles[c]? }));
+    let bloom = MetalBloom { metal_greys: found.into_iter().map(|(_, g)| g).collect(), clipped_at: ceiling.filter(|_| clipped_grey.iter().any(Option::is_some)), blur_mm, reach_mm, voxels: changed.len(), cupping };
     Some((out, bloom))
 }
 
@@ -688,6 +727,29 @@ mod tests {
         let (wrong_before, wrong_after, seen) = misread(&scan, &clean, &cal, &[AMALGAM]);
         assert!(wrong_before > seen / 10, "the bloom this test is about: {wrong_before} of {seen} voxels in another class");
         assert_eq!(wrong_after, 0, "{wrong_after} of {seen} tissue voxels beside the metal in another class");
+        // Made without beam hardening: its middle is its brightest part.
+        let cupping = bloom.cupping.expect("a measured restoration's cupping");
+        assert!(cupping.share(2900.0).abs() < 0.01, "{cupping:?}");
+    }
+
+    #[test]
+    fn a_metal_darker_in_its_middle_is_read_as_cupped() {
+        // A 4 × 4 × 3.5 mm filling read darker the deeper inside it (3000 less 1.5 mm in, 750
+        // less 0.75 mm in), as a beam hardened through it reads: its rim brightest, its middle
+        // darkest.
+        let crown: Filling = ([1.0, 1.0, 0.5], [5.0, 5.0, 4.0], 12000.0);
+        let (mut scan, cal) = filled_scan(N, &[crown], f32::INFINITY);
+        let (lo, hi, _) = crown;
+        for (n, v) in scan.values.iter_mut().enumerate() {
+            let p = [n % N, (n / N) % N, n / (N * N)].map(|q| q as f64 * H);
+            let depth = (0..3).map(|c| (p[c] - lo[c]).min(hi[c] - p[c])).fold(f64::INFINITY, f64::min);
+            *v -= (3000.0 * (depth.max(0.0) / 1.5).powi(2)) as f32;
+        }
+        let (_, bloom) = unbloom(&scan, &cal).expect("an unclipped filling is measured");
+        let cupping = bloom.cupping.expect("a measured restoration's cupping");
+        // Read: 10357 in its middle against 11576 at its brightest, 14 % of its lift over the
+        // enamel (the unhardened filling's under 1 %).
+        assert!(cupping.middle < cupping.brightest - 1000.0 && cupping.share(2900.0) > 0.1, "{cupping:?}");
     }
 
     #[test]

@@ -893,13 +893,13 @@ fn mesh_surface(p: &TissueProps, mesh: &TriMesh, volume_before_mm3: f64, volume_
     }
 }
 
-/// A segmentation's warnings on the surfaces they concern: a clipped restoration's on the
-/// enamel's (the enamel and dentin beside it); the others are about the pulp, so on the pulp's,
+/// A segmentation's warnings on the surfaces they concern: a clipped or beam-hardening
+/// restoration's on the enamel's (the enamel and dentin beside it); the others are about the pulp, so on the pulp's,
 /// or where none was found, on the dentin's (the tissue the lost pulp was read as).
 fn attach_warnings(surfaces: &mut [TissueSurface], warnings: &[String]) {
     let at = |surfaces: &[TissueSurface], name: &str| surfaces.iter().position(|s| s.name == name);
     for w in warnings {
-        let holder = if w.starts_with(dentsim_sim::tissues::warnings::SATURATED_METAL) {
+        let holder = if w.starts_with(dentsim_sim::tissues::warnings::SATURATED_METAL) || w.starts_with(dentsim_sim::tissues::warnings::HARDENED_METAL) {
             at(surfaces, "enamel").or_else(|| at(surfaces, "dentin"))
         } else if w.starts_with(dentsim_sim::tissues::warnings::SHADING) {
             at(surfaces, "dentin").or_else(|| at(surfaces, "enamel"))

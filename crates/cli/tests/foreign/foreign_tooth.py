@@ -29,7 +29,9 @@ at 0.3 mm, its pulp 300 HU, int16 as the sweep's; stored as float32 the same sca
 (custom's incisor in water at 0.1 mm, the point spread two voxels wide, int16 as the sweep's), or shaded_jaw / shaded_incisor_water
 (custom's molar in a jaw at 0.3 mm / incisor in water at 0.25 mm under a cone-beam shading of 300 HU: SHADING, also custom's,
 a cupping toward the field's axis and a ramp along it; the JSON then gives its span over the tooth, 5th to 95th percentile), or
-humped_incisor_jaw (custom's incisor in a jaw at 0.25 mm under a 400 HU Gaussian hump of scatter, SHADING_FORM=bump). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
+humped_incisor_jaw (custom's incisor in a jaw at 0.25 mm under a 400 HU Gaussian hump of scatter, SHADING_FORM=bump), or
+streaked_incisor_jaw (custom's incisor in a jaw at 0.35 mm, its 12000 HU filling hardening the beam: STREAKS 0.5, also custom's,
+each axial ray's attenuation through the metal read short by 0.5 times its square, reconstructed by filtered back-projection). Prints one JSON line: the file written, a point inside the tooth (LPS mm) and the
 true volume of each tissue (mm^3).
 """
 import json
@@ -40,14 +42,16 @@ import sys
 import numpy as np
 
 OUT, CASE = sys.argv[1], sys.argv[2]
-CUSTOM = CASE in ("custom", "shaded_jaw", "shaded_incisor_water", "humped_incisor_jaw", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling", "clipped_jaw", "gold_incisor", "incisor_water_fine")
-SHADING, SHADING_FORM = 0.0, "cupping"
+CUSTOM = CASE in ("custom", "streaked_incisor_jaw", "shaded_jaw", "shaded_incisor_water", "humped_incisor_jaw", "filled_jaw", "filled_incisor", "filled_incisor_air", "clipped_filling", "clipped_jaw", "gold_incisor", "incisor_water_fine")
+SHADING, SHADING_FORM, STREAKS = 0.0, "cupping", 0.0
 if CASE == "shaded_jaw":  # the sweep's molar in a jaw at 0.3 mm under a cone-beam scanner's shading
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING, SHADING = "molar", "jaw", 0.3, 40.0, 5, "", 300.0
 elif CASE == "shaded_incisor_water":  # its incisor in water at 0.25 mm under the same shading
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING, SHADING = "incisor", "water", 0.25, 40.0, 5, "", 300.0
 elif CASE == "humped_incisor_jaw":  # the sweep's incisor_jaw_0.25_40 (its seed) under a 400 HU hump of scatter
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING, SHADING, SHADING_FORM = "incisor", "jaw", 0.25, 40.0, 191, "", 400.0, "bump"
+elif CASE == "streaked_incisor_jaw":  # the sweep's incisor_jaw_0.35_40 (its seed), its filling hardening the beam
+    SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING, STREAKS = "incisor", "jaw", 0.35, 40.0, 303, "12000", 0.5
 elif CASE == "filled_jaw":  # the sweep's molar in a jaw at 0.3 mm with an amalgam filling
     SHAPE, MEDIUM, VOXEL, PULP_HU, SEED, FILLING = "molar", "jaw", 0.3, 40.0, 22, "12000"
 elif CASE == "filled_incisor":  # the sweep's incisor in a jaw at 0.25 mm with one
@@ -72,6 +76,10 @@ elif CUSTOM:
     # "bump": instead a scatter-like Gaussian hump of that height off the field's middle (no
     # quadratic, which dentsim's correction fits)
     SHADING_FORM = os.environ.get("SHADING_FORM", "cupping")
+    # The filling's beam hardening (none if 0): each axial slice's rays through the metal read
+    # their attenuation p short by STREAKS * p^2 (0.1-0.3 is a metal's), reconstructed by
+    # filtered back-projection: dark streaks along the metal's long chords, bright ones beside.
+    STREAKS = float(os.environ.get("STREAKS", "0"))
 INCISOR = CASE in ("incisor", "incisor_jaw", "incisor_coarse", "incisor_jaw_wide", "incisor_jaw_fine") or (CUSTOM and SHAPE == "incisor")
 rng = np.random.default_rng(SEED if CUSTOM else {"jaw": 11, "air": 12, "water": 13, "socket": 14, "incisor": 15, "water12": 16, "scaled": 17, "fine": 18, "incisor_jaw": 19, "incisor_coarse": 20, "incisor_jaw_wide": 191, "incisor_jaw_fine": 21}[CASE])
 JAW = CASE in ("jaw", "socket", "incisor_jaw", "incisor_jaw_wide", "incisor_jaw_fine") or (CUSTOM and MEDIUM == "jaw")
@@ -165,11 +173,46 @@ voxel_mm3 = np.prod(spacing) / FINE ** 3
 truth = {name: float(mask.sum() * voxel_mm3) for name, mask in (("enamel", enamel), ("dentin", dentin), ("pulp", pulp))}
 if SHADING:  # the tooth on the scan's grid, where the shading's span over it is measured
     in_tooth = tooth.reshape(dims[0], FINE, dims[1], FINE, dims[2], FINE).mean(axis=(1, 3, 5)) > 0.5
+metal_share = None
+if STREAKS and filling is not None:  # the metal's share of each scan voxel
+    metal_share = np.broadcast_to(filling, values.shape).reshape(dims[0], FINE, dims[1], FINE, dims[2], FINE).mean(axis=(1, 3, 5))
 del crown, core, root, tooth, enamel, pulp, dentin, medium, filling
 
 # Partial volume (average of the sub-samples), then the scanner's blur and noise.
 scan = values.reshape(dims[0], FINE, dims[1], FINE, dims[2], FINE).mean(axis=(1, 3, 5))
 del values
+
+
+def metal_streaks(share, pixel_mm, mu_metal):
+    """One axial slice's beam-hardening error (HU): each ray's attenuation through the metal p
+    (its path times mu_metal, 1/mm) over 360 angles in [0, pi) read short by STREAKS * p^2, the
+    error's sinogram ramp-filtered and back-projected (the scanner's filtered back-projection is
+    linear, so only the error needs it)."""
+    from scipy import ndimage
+
+    n = int(math.ceil(math.hypot(*share.shape))) + 2
+    padded = np.zeros((n, n))
+    ox, oy = (n - share.shape[0]) // 2, (n - share.shape[1]) // 2
+    padded[ox:ox + share.shape[0], oy:oy + share.shape[1]] = share
+    angles = np.linspace(0.0, 180.0, 360, endpoint=False)
+    ramp = np.abs(np.fft.fftfreq(n, d=pixel_mm))
+    error = np.zeros((n, n))
+    for a in angles:
+        p = ndimage.rotate(padded, a, reshape=False, order=1).sum(axis=0) * pixel_mm * mu_metal
+        filtered = np.real(np.fft.ifft(np.fft.fft(-STREAKS * p ** 2) * ramp))
+        error += ndimage.rotate(np.broadcast_to(filtered, (n, n)), -a, reshape=False, order=1)
+    error *= math.pi / len(angles)
+    return error[ox:ox + share.shape[0], oy:oy + share.shape[1]] * MU_WATER_HU
+
+
+if metal_share is not None:
+    # Attenuation (1/mm) against HU: water's 0.02 at a CBCT's ~70 keV, 1000 HU per MU_WATER.
+    MU_WATER = 0.02
+    MU_WATER_HU = 1000.0 / MU_WATER
+    mu_metal = MU_WATER * (1.0 + float(FILLING) / 1000.0)
+    for k in np.nonzero(metal_share.reshape(-1, dims[2]).max(axis=0) > 0.0)[0]:
+        scan[:, :, k] += metal_streaks(metal_share[:, :, k], spacing[0], mu_metal)
+    del metal_share
 sigma_mm = 0.2
 freq = np.meshgrid(*[np.fft.fftfreq(n, d=s) for n, s in zip(dims, spacing)], indexing="ij", sparse=True)
 transfer = np.exp(-2.0 * math.pi ** 2 * sigma_mm ** 2 * sum(f ** 2 for f in freq))

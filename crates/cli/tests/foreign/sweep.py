@@ -8,7 +8,9 @@ warnings, or the refusal; then the counts. Run two builds on the same scans to c
 
 DENTSIM: the dentsim binary; ONLY: run only the scans whose name holds one of these (e.g. jaw_0.1).
 FILLING=HU in the environment gives every tooth an occlusal metal filling of that grey (e.g. 12000;
-30000, gold's range; 40000, which the int16 storage clips at 32767). SHADING=HU puts every scan
+30000, gold's range; 40000, which the int16 storage clips at 32767), and STREAKS=B with it that
+filling's beam hardening (each axial ray through the metal short by B times its attenuation
+squared, reconstructed by filtered back-projection; 0.1-0.3 is a metal's). SHADING=HU puts every scan
 under a cone-beam scanner's shading (cupping and a ramp along the axis; SHADING_FORM=bump instead a
 Gaussian hump of that height).
 """
