@@ -1072,8 +1072,10 @@ mod tests {
         };
         let clipped = dentsim_sim::tissues::warnings::saturated_metal_warning(32767.0, 300, 12.0, 600.0, None).unwrap();
         let mut surfaces = vec![named("enamel"), named("dentin"), named("pulp")];
-        attach_warnings(&mut surfaces, &["the pulp's canals were not found".into(), clipped.clone()]);
-        assert_eq!(surfaces[0].warnings, vec![clipped]);
+        let cupping = dentsim_cbct::bloom::Cupping { brightest: 7514.0, middle: 6440.0 };
+        let hardened = dentsim_sim::tissues::warnings::hardened_metal_warning(&cupping, 2886.0, 0.82, 27.7, 480.0).unwrap();
+        attach_warnings(&mut surfaces, &["the pulp's canals were not found".into(), clipped.clone(), hardened.clone()]);
+        assert_eq!(surfaces[0].warnings, vec![clipped, hardened]);
         assert!(surfaces[1].warnings.is_empty());
         assert_eq!(surfaces[2].warnings, vec!["the pulp's canals were not found".to_string()]);
     }

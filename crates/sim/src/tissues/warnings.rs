@@ -128,7 +128,7 @@ pub const HARDENED_METAL: &str = "a metal restoration hardens the scanner's beam
 /// The least cupping ([`Cupping::share`]) that says a restoration hardens the beam. Fillings
 /// made without hardening read 0.1–1 % (their middle is their brightest part, less the noise);
 /// with `foreign_tooth.py`'s STREAKS (each ray's attenuation read short by that times its
-/// square) a 12000 HU one at 0.2 / 0.5 read 3.4 / 14–23 %, a 30000 HU one at 0.2 8 %. The
+/// square) a 12000 HU one at 0.2 / 0.5 read 3.4 / 22–23 %, a 30000 HU one at 0.2 8 %. The
 /// 12000 HU one at 0.5 cost its incisor 4 % more of its enamel beside it (−8.4 % in all), the
 /// 30000 HU one at 0.2 its molar 2 % of its dentin.
 pub const HARDENED_SHARE: f64 = 0.05;
