@@ -77,7 +77,7 @@ elif CUSTOM:
     # quadratic, which dentsim's correction fits)
     SHADING_FORM = os.environ.get("SHADING_FORM", "cupping")
     # The filling's beam hardening (none if 0): each axial slice's rays through the metal read
-    # their attenuation p short by STREAKS * p^2 (0.1-0.3 is a metal's), reconstructed by
+    # their attenuation p short by STREAKS * p^2 (0.1-0.3 taken as a metal's), reconstructed by
     # filtered back-projection: dark streaks along the metal's long chords, bright ones beside.
     STREAKS = float(os.environ.get("STREAKS", "0"))
 INCISOR = CASE in ("incisor", "incisor_jaw", "incisor_coarse", "incisor_jaw_wide", "incisor_jaw_fine") or (CUSTOM and SHAPE == "incisor")

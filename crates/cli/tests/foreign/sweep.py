@@ -10,7 +10,7 @@ DENTSIM: the dentsim binary; ONLY: run only the scans whose name holds one of th
 FILLING=HU in the environment gives every tooth an occlusal metal filling of that grey (e.g. 12000;
 30000, gold's range; 40000, which the int16 storage clips at 32767), and STREAKS=B with it that
 filling's beam hardening (each axial ray through the metal short by B times its attenuation
-squared, reconstructed by filtered back-projection; 0.1-0.3 is a metal's). SHADING=HU puts every scan
+squared, reconstructed by filtered back-projection; 0.1-0.3 taken as a metal's). SHADING=HU puts every scan
 under a cone-beam scanner's shading (cupping and a ramp along the axis; SHADING_FORM=bump instead a
 Gaussian hump of that height).
 """
