@@ -318,13 +318,21 @@ fn a_filling_the_scanner_clipped_is_read_from_its_bloom_and_said() {
     assert_eq!(bloom["clipped_at"].as_f64(), Some(32767.0), "{bloom}");
     let grey = bloom["metal_greys"][0].as_f64().expect("the metal's grey");
     assert!((grey / 40000.0 - 1.0).abs() < 0.1, "the clipped filling's grey read as {grey}");
-    let warnings: Vec<&str> = report["warnings"].as_array().unwrap().iter().filter_map(|w| w.as_str()).collect();
-    let said = warnings.iter().find(|w| w.starts_with("a metal restoration saturates the scan")).unwrap_or_else(|| panic!("not said: {warnings:?}"));
+    let said = said_in_doubt(&report, "a metal restoration saturates the scan", found);
     assert!(said.contains(&format!("about {grey:.0}")), "{said}");
+}
+
+/// The report's warning that starts with `starts`, which gives the enamel and dentin in doubt
+/// beside a restoration ("… N mm³ of enamel and dentin …"): each of those tissues in `found`
+/// must lie within that of its truth.
+fn said_in_doubt(report: &serde_json::Value, starts: &str, found: Vec<(String, f64, f64)>) -> String {
+    let warnings: Vec<&str> = report["warnings"].as_array().unwrap().iter().filter_map(|w| w.as_str()).collect();
+    let said = warnings.iter().find(|w| w.starts_with(starts)).unwrap_or_else(|| panic!("not said: {warnings:?}"));
     let near: f64 = said.split(" mm³ of enamel and dentin").next().and_then(|s| s.rsplit(' ').next()).and_then(|v| v.parse().ok()).expect("the volume in doubt");
     for (name, found, truth) in found.into_iter().filter(|(n, _, _)| n != "pulp") {
         assert!((found - truth).abs() <= near, "{name}: {found:.1} mm³ against {truth:.1}, beyond the {near} mm³ said to be in doubt");
     }
+    said.to_string()
 }
 
 #[test]
@@ -342,12 +350,7 @@ fn a_filling_that_hardens_the_beam_is_said_with_the_tissue_its_streaks_put_in_do
     let cupping = &report["metal_bloom"]["cupping"];
     let (brightest, middle) = (cupping["brightest"].as_f64().unwrap(), cupping["middle"].as_f64().unwrap());
     assert!(middle < brightest - 500.0, "no cupping read: {cupping}");
-    let warnings: Vec<&str> = report["warnings"].as_array().unwrap().iter().filter_map(|w| w.as_str()).collect();
-    let said = warnings.iter().find(|w| w.starts_with("a metal restoration hardens the scanner's beam")).unwrap_or_else(|| panic!("not said: {warnings:?}"));
-    let near: f64 = said.split(" mm³ of enamel and dentin").next().and_then(|s| s.rsplit(' ').next()).and_then(|v| v.parse().ok()).expect("the volume in doubt");
-    for (name, found, truth) in found.into_iter().filter(|(n, _, _)| n != "pulp") {
-        assert!((found - truth).abs() <= near, "{name}: {found:.1} mm³ against {truth:.1}, beyond the {near} mm³ said to be in doubt");
-    }
+    said_in_doubt(&report, "a metal restoration hardens the scanner's beam", found);
 }
 
 #[test]
