@@ -24,7 +24,7 @@
 
 use crate::calibrate::Calibration;
 use crate::mask::components;
-use crate::partial_volume::distance_mm;
+use crate::partial_volume::{distance_mm, median};
 use crate::roi::{crop, IndexBox};
 use crate::volume::face_neighbours;
 use crate::{Label, Volume};
@@ -231,11 +231,8 @@ pub fn unbloom(vol: &Volume, cal: &Calibration) -> Option<(Volume, MetalBloom)> 
         .iter_mut()
         .map(|voxels| {
             voxels.sort_by(|a, b| a.1.total_cmp(&b.1));
-            let mut deepest: Vec<f32> = voxels[voxels.len() * 9 / 10..].iter().map(|v| v.0).collect();
-            (deepest.len() >= MIN_CORE_VOXELS).then(|| {
-                let mid = deepest.len() / 2;
-                f64::from(*deepest.select_nth_unstable_by(mid, f32::total_cmp).1)
-            })
+            let deepest: Vec<f32> = voxels[voxels.len() * 9 / 10..].iter().map(|v| v.0).collect();
+            (deepest.len() >= MIN_CORE_VOXELS).then(|| median(deepest))
         })
         .collect();
     let cores: Vec<Option<Core>> = members

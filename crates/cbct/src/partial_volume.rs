@@ -224,7 +224,7 @@ pub fn tissue_grey(vol: &Volume, labels: &LabelVolume, tissue: Label, surround: 
     (grey, reading != Reading::Predicted)
 }
 
-fn median(mut v: Vec<f32>) -> f64 {
+pub(crate) fn median(mut v: Vec<f32>) -> f64 {
     let m = v.len() / 2;
     f64::from(*v.select_nth_unstable_by(m, |a, b| a.total_cmp(b)).1)
 }

@@ -19,7 +19,7 @@ use crate::tissues::{blur_fit, field};
 use crate::tissues::ligament::Ligament;
 use crate::tissues::model::TissueModel;
 use crate::tissues::table::TissueTable;
-use crate::tissues::warnings::{canal_shortfall, canal_warning, hardened_metal_warning, pulp_fit_warning, pulp_warning, saturated_metal_warning, shading_warning, Unshading, MIN_PULP_SHARE, SATURATED_METAL_REACH_MM};
+use crate::tissues::warnings::{canal_shortfall, canal_warning, hardened_metal_warning, pulp_fit_warning, pulp_warning, saturated_metal_warning, shading_warning, Unshading, HARDENED_SHARE, MIN_PULP_SHARE, SATURATED_METAL_REACH_MM};
 
 mod edge_profiles;
 use edge_profiles::{EdgeProfiles, RootBorder, SeenUnderTheOutside};
@@ -402,11 +402,14 @@ impl TissuesFromScan {
             let estimated = metal_bloom.as_ref().filter(|b| b.clipped_at.is_some()).and_then(|b| b.metal_greys.first().copied());
             saturated_metal_warning(clipped.grey, clipped.voxels, near, tooth, estimated)
         });
-        // An unclipped restoration's streaks reach the tissue within its bloom's reach.
+        // An unclipped restoration's streaks reach the tissue within its bloom's reach (the
+        // tissue there measured only where the metal reads hardened).
         let metal_warning = metal_warning.or_else(|| {
             let bloom = metal_bloom.as_ref()?;
+            let enamel = calibration.peak(Label::Enamel);
+            let cupping = bloom.cupping.as_ref().filter(|c| c.share(enamel) >= HARDENED_SHARE)?;
             let (near, tooth) = beside_metal(&tooth_scan, &tooth_labels, &calibration, bloom.reach_mm);
-            hardened_metal_warning(bloom.cupping.as_ref()?, calibration.peak(Label::Enamel), bloom.reach_mm, near, tooth)
+            hardened_metal_warning(cupping, enamel, bloom.reach_mm, near, tooth)
         });
 
         let clock = Instant::now();
