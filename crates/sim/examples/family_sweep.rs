@@ -11,6 +11,9 @@
 //! ours against the sampled resolution floor's, angle and mean signed distance (with `quiet` or `ideal` as above). `volumes`: where each
 //! tissue's volume error lies (mm³ ours holds and the truth not, and the reverse) by the truth's
 //! nearest interface (pulp wall, outer surface, DEJ), or past our band, sampled on a 0.025 mm grid.
+//! `beside-floor`: each tissue's normal error beside its sampled resolution floor's, and the
+//! normal misses counted by whether that floor itself is over 5° (a goal no reading that does not
+//! sharpen the scan reaches) or under it (within reach).
 //! `json=FILE`: each case's figures written to FILE as JSON too; `against=FILE`: each tissue's
 //! figures beside those of an earlier run's FILE, with the change (a change measured, case by case).
 #[path = "../tests/family/mod.rs"]
@@ -91,6 +94,9 @@ fn main() {
         },
         None => None,
     };
+    let beside_floor = std::env::args().any(|a| a == "beside-floor");
+    // Normal misses whose sampled floor is over the goal, and those under it.
+    let (mut past_floor, mut within_reach) = (Vec::new(), Vec::new());
     let mut cases = Vec::new();
     for mut case in dentsim_cbct::phantom::family(!quick) {
         if !only.is_empty() && !only.iter().any(|o| case.name.contains(o.as_str())) {
@@ -110,6 +116,19 @@ fn main() {
                 if let Some(earlier) = against.as_ref().and_then(|a| a["cases"].as_array()).and_then(|cases| cases.iter().find(|c| c["name"] == r.name.as_str())) {
                     print_against(&r, earlier);
                 }
+                if beside_floor {
+                    let floor = family::resolution_floor(&case, 0.05, true);
+                    let mut text = Vec::new();
+                    for t in &r.tissues {
+                        let Some(&(_, _, floor_deg)) = floor.iter().find(|(l, _, _)| *l == t.label) else { continue };
+                        text.push(format!("{} {:.1}° / {:.1}°", t.label.name(), t.normal_deg, floor_deg));
+                        if t.normal_deg > 5.0 {
+                            let miss = format!("{} {} ({:.1}°, floor {:.1}°)", r.name, t.label.name(), t.normal_deg, floor_deg);
+                            if floor_deg > 5.0 { past_floor.push(miss) } else { within_reach.push(miss) }
+                        }
+                    }
+                    println!("    normals, ours / sampled floor: {}", text.join(" | "));
+                }
                 cases.push(case_json(&r));
                 if let (true, Some((truth, voxels, measure, offset))) = (std::env::args().any(|a| a == "pulp"), r.pulp) {
                     println!("    pulp: true {truth:.2} mm³, voxels {voxels:.2} ({:+.1} %), measure {measure:.2} ({:+.1} %), offset {offset:+.3} mm", 100.0 * (voxels / truth - 1.0), 100.0 * (measure / truth - 1.0));
@@ -124,6 +143,12 @@ fn main() {
         }
     }
     println!("{met} of {all} tissues meet the goals: volume {volume}, mean surface distance {surface}, mean normal error {normal}");
+    if beside_floor {
+        println!("normal misses whose sampled resolution floor is itself over 5°: {}", past_floor.len());
+        past_floor.iter().for_each(|m| println!("    {m}"));
+        println!("normal misses whose floor is within 5°: {}", within_reach.len());
+        within_reach.iter().for_each(|m| println!("    {m}"));
+    }
     if let Some(path) = json {
         let run = serde_json::json!({ "ideal": ideal, "quiet": quiet, "met": met, "of": all, "cases": cases });
         if let Err(e) = std::fs::write(&path, serde_json::to_string_pretty(&run).expect("plain values")) {
