@@ -11,13 +11,20 @@ from dentsim_testing import (check, compare_with_baseline, parse_args, place_cam
 args = parse_args()
 simple.LoadPlugin(args.plugin, ns=globals())
 
-# Down into the phantom's top (z = 5.0) with the pedal held, held 0.3 mm deep while the burr cuts
-# its way down at the enamel's removal rate, then pedal up and pressing 0.2 mm on.
-path = os.path.join(args.temp, "haptic_session_path.csv")
-with open(path, "w") as f:
-    f.write("t,x,y,z,qw,qx,qy,qz,rpm,cut\n0,0,0,6.0,1,0,0,0,200000,1\n"
-            "0.4,0,0,4.7,1,0,0,0,200000,1\n1.0,0,0,4.7,1,0,0,0,200000,1\n"
-            "1.05,0,0,4.7,1,0,0,0,200000,0\n1.2,0,0,4.5,1,0,0,0,200000,0\n")
+
+def write_path(name, held_until):
+    """Down into the phantom's top (z = 5.0) with the pedal held, held 0.3 mm deep until
+    `held_until` while the burr cuts its way down at the enamel's removal rate, then pedal up and
+    pressing 0.2 mm on; ends 0.2 s after."""
+    rows = [(0.0, 6.0, 1), (0.4, 4.7, 1), (held_until, 4.7, 1), (held_until + 0.05, 4.7, 0), (held_until + 0.2, 4.5, 0)]
+    path = os.path.join(args.temp, name)
+    with open(path, "w") as f:
+        f.write("t,x,y,z,qw,qx,qy,qz,rpm,cut\n")
+        f.writelines("%g,0,0,%g,1,0,0,0,200000,%d\n" % row for row in rows)
+    return path
+
+
+path = write_path("haptic_session_path.csv", 1.0)
 
 
 def state(source):
@@ -45,11 +52,7 @@ def state(source):
 # Real time: the session runs on its own clock while we poll. The same motion held 2 s longer in
 # the cut: a loaded machine answers a poll in up to a second (the haptic thread keeps a core), and
 # the 1.2 s path then ended before a second poll.
-live_path = os.path.join(args.temp, "haptic_session_path_live.csv")
-with open(live_path, "w") as f:
-    f.write("t,x,y,z,qw,qx,qy,qz,rpm,cut\n0,0,0,6.0,1,0,0,0,200000,1\n"
-            "0.4,0,0,4.7,1,0,0,0,200000,1\n3.0,0,0,4.7,1,0,0,0,200000,1\n"
-            "3.05,0,0,4.7,1,0,0,0,200000,0\n3.2,0,0,4.5,1,0,0,0,200000,0\n")
+live_path = write_path("haptic_session_path_live.csv", 3.0)
 live = DentalHapticSession(PhantomVoxelSizemm=0.08, Device="Scripted tool path", ScriptedPathCSV=live_path,
                            ForceFilter="none", RealTime=1)
 seen = []
